@@ -1,0 +1,20 @@
+#include "analysis/events.hpp"
+
+namespace hexcut::analysis {
+
+const Events& events() {
+  static Events e = [] {
+    Events r{};
+    PetscClassId id;
+    PetscClassIdRegister("hexcut", &id);
+    PetscLogEventRegister("hexcutSetup", id, &r.setup);
+    PetscLogEventRegister("hexcutAssembly", id, &r.assembly);
+    PetscLogEventRegister("hexcutSolve", id, &r.solve);
+    PetscLogEventRegister("hexcutStress", id, &r.stress);
+    PetscLogEventRegister("hexcutOutput", id, &r.output);
+    return r;
+  }();
+  return e;
+}
+
+}  // namespace hexcut::analysis

@@ -1,0 +1,38 @@
+// Setup of the discrete model, stage by stage (design.md §2): deck -> voxel grid ->
+// lattice (cells, links) -> vertex copies -> partition -> DOF layout + DM -> cell data
+// and boundary data. Every rank builds the same lattice and topology (they are small
+// integer arrays) and keeps the operator data of its own cells only.
+#pragma once
+
+#include <petscdm.h>
+
+#include "assembly/boundary.hpp"
+#include "assembly/operator.hpp"
+#include "deck/deck.hpp"
+#include "lattice/lattice.hpp"
+#include "topology/dof_layout.hpp"
+#include "topology/partition.hpp"
+#include "topology/vertex_copies.hpp"
+
+namespace hexcut::analysis {
+
+struct Model {
+  lattice::Lattice lattice;
+  topology::VertexCopies copies;
+  topology::Partition partition;
+  topology::DofLayout layout;
+  DM dm = nullptr;             // global/local vectors and ghost exchange
+  Vec coordinates = nullptr;   // owned reference positions (bs 3)
+  assembly::CellData cells;    // operator data of the local cells
+  assembly::Boundary boundary;
+};
+
+/// Voxelizes the deck's geometry. Throws InputError (with the deck line) when the body
+/// is empty.
+lattice::Lattice build_lattice(const deck::Deck& deck);
+
+/// Builds the whole model on `comm`. `superblock` = cells per super-block side.
+PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model);
+PetscErrorCode destroy_model(Model* model);
+
+}  // namespace hexcut::analysis

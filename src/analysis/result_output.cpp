@@ -1,0 +1,247 @@
+#include "analysis/result_output.hpp"
+
+#include "common/errors.hpp"
+#include "common/petsc_check.hpp"
+#include "element/element.hpp"
+#include "hexcut_version.hpp"
+
+namespace hexcut::analysis {
+namespace {
+
+/// Even split of n rows over the communicator (same rule as PetscSplitOwnership).
+output::Slab even_slab(MPI_Comm comm, std::int64_t n) {
+  int rank, size;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  output::Slab s;
+  s.global_rows = n;
+  s.local_rows = n / size + (rank < n % size ? 1 : 0);
+  s.row_offset = rank * (n / size) + std::min<std::int64_t>(rank, n % size);
+  return s;
+}
+
+/// The mesh tables of this rank's canonical slabs: they are computed directly from the
+/// replicated lattice and copies, so no communication is needed.
+output::ResultWriter create_writer(MPI_Comm comm, const Model& M, const deck::Deck& deck,
+                                   const std::string& path, const std::string& command_line) {
+  const auto& L = M.lattice;
+  output::MeshData mesh;
+  mesh.lattice = L.spec;
+  mesh.points = even_slab(comm, M.copies.num_copies);
+  mesh.cells = even_slab(comm, L.num_cells());
+  std::vector<double> positions(3 * mesh.points.local_rows);
+  for (std::int64_t i = 0; i < mesh.points.local_rows; ++i) {
+    const auto& v = M.copies.vertex[mesh.points.row_offset + i];
+    for (int d = 0; d < 3; ++d) positions[3 * i + d] = L.spec.origin[d] + L.spec.h * v[d];
+  }
+  std::vector<std::int64_t> connectivity(8 * mesh.cells.local_rows);
+  std::vector<std::int32_t> ijk(3 * mesh.cells.local_rows), material(mesh.cells.local_rows);
+  std::vector<double> youngs(mesh.cells.local_rows);
+  for (std::int64_t i = 0; i < mesh.cells.local_rows; ++i) {
+    const auto c = mesh.cells.row_offset + i;
+    for (int q = 0; q < 8; ++q) connectivity[8 * i + q] = M.copies.cell_corners[c][topology::kVtkHexOrder[q]];
+    for (int d = 0; d < 3; ++d) ijk[3 * i + d] = L.ijk[c][d];
+    material[i] = L.material[c];
+    youngs[i] = L.youngs[c];
+  }
+  mesh.positions = positions.data();
+  mesh.connectivity = connectivity.data();
+  mesh.lattice_index = ijk.data();
+  mesh.material = material.data();
+  mesh.youngs_modulus = youngs.data();
+  output::RunInfo run{deck.text, command_line};
+  return output::ResultWriter::create(path, comm, mesh, run);
+}
+
+}  // namespace
+
+PetscErrorCode create_state(DM dm, State* s) {
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateGlobalVector(dm, &s->u));
+  PetscCall(PetscObjectSetName((PetscObject)s->u, "displacement"));
+  PetscCall(VecDuplicate(s->u, &s->v));
+  PetscCall(VecDuplicate(s->u, &s->a));
+  PetscCall(VecSet(s->u, 0.0));
+  PetscCall(VecSet(s->v, 0.0));
+  PetscCall(VecSet(s->a, 0.0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode destroy_state(State* s) {
+  PetscFunctionBeginUser;
+  PetscCall(VecDestroy(&s->u));
+  PetscCall(VecDestroy(&s->v));
+  PetscCall(VecDestroy(&s->a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStressFields* out) {
+  PetscFunctionBeginUser;
+  const auto& D = M.layout;
+  const auto& C = M.cells;
+  const std::size_t n = D.cells.size();
+  out->sigma.resize(6 * n);
+  out->von_mises.resize(n);
+  out->pressure.resize(n);
+  out->principal.resize(3 * n);
+  out->directions.resize(9 * n);
+  Vec ul;
+  PetscCall(DMGetLocalVector(M.dm, &ul));
+  PetscCall(assembly::global_to_local(M.dm, u, ul));
+  const PetscScalar* ua;
+  PetscCall(VecGetArrayRead(ul, &ua));
+  double x24[24];
+  element::corner_positions(C.h, nullptr, x24);
+  const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  for (std::size_t e = 0; e < n; ++e) {
+    double u24[24], R[9], F[9];
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) u24[3 * q + d] = ua[3 * D.cell_corners[e][q] + d];
+    if (corotational) {
+      element::deformation_gradient_at_centre(u24, C.h, F);
+      element::polar_rotation(F, R);
+    } else {
+      std::copy(identity, identity + 9, R);
+    }
+    const auto s = element::recover_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e]);
+    std::copy(s.sigma, s.sigma + 6, &out->sigma[6 * e]);
+    out->von_mises[e] = s.von_mises;
+    out->pressure[e] = s.pressure;
+    std::copy(s.principal, s.principal + 3, &out->principal[3 * e]);
+    std::copy(s.directions, s.directions + 9, &out->directions[9 * e]);
+  }
+  PetscCall(VecRestoreArrayRead(ul, &ua));
+  PetscCall(DMRestoreLocalVector(M.dm, &ul));
+  PetscFunctionReturn(0);
+}
+
+ResultOutput::ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck,
+                           const std::string& path, const std::string& command_line, bool restart)
+    : comm_(comm),
+      model_(model),
+      deck_(deck),
+      writer_(restart ? output::ResultWriter::open(path, comm)
+                      : create_writer(comm, model, deck, path, command_line)) {
+  const auto& D = model.layout;
+  check_petsc(topology::create_natural_scatter(comm, D.num_global_copies,
+                                         std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
+                                         D.first_owned_block(), 3, &points_),
+        "create_natural_scatter");
+  const PetscInt n_local = PetscInt(D.cells.size());
+  MPI_Exscan(&n_local, &first_local_cell_, 1, MPIU_INT, MPI_SUM, comm);
+  if (D.rank == 0) first_local_cell_ = 0;
+  if (restart && (writer_.num_points() != D.num_global_copies || writer_.num_cells() != model.lattice.num_cells()))
+    throw InputError(path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) + " points, " +
+                     std::to_string(writer_.num_cells()) + " cells) does not match this deck's");
+}
+
+ResultOutput::~ResultOutput() {
+  destroy_natural_scatter(&points_);
+  for (auto& [b, s] : cells_) destroy_natural_scatter(&s);
+}
+
+topology::NaturalScatter& ResultOutput::cell_scatter(int block) {
+  auto it = cells_.find(block);
+  if (it != cells_.end()) return it->second;
+  auto& s = cells_[block];
+  check_petsc(topology::create_natural_scatter(comm_, model_.lattice.num_cells(), model_.layout.cells,
+                                         first_local_cell_, block, &s),
+        "create_natural_scatter");
+  return s;
+}
+
+void ResultOutput::write_point_vector(std::int64_t step, const std::string& name, Vec v,
+                                      const std::string& unit) {
+  check_petsc(VecScatterBegin(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check_petsc(VecScatterEnd(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  const PetscScalar* a;
+  check_petsc(VecGetArrayRead(points_.natural, &a), "VecGetArrayRead");
+  writer_.write_point_field(step, name, 3, points_.row_begin, points_.rows, a, unit);
+  check_petsc(VecRestoreArrayRead(points_.natural, &a), "VecRestoreArrayRead");
+}
+
+void ResultOutput::write_cell_values(std::int64_t step, const std::string& name, int block,
+                                     const std::vector<double>& values, const std::string& unit) {
+  auto& s = cell_scatter(block);
+  Vec local;
+  check_petsc(VecCreateMPIWithArray(comm_, block, PetscInt(values.size()), PETSC_DETERMINE, values.data(), &local),
+        "VecCreateMPIWithArray");
+  check_petsc(VecScatterBegin(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check_petsc(VecScatterEnd(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check_petsc(VecDestroy(&local), "VecDestroy");
+  const PetscScalar* a;
+  check_petsc(VecGetArrayRead(s.natural, &a), "VecGetArrayRead");
+  writer_.write_cell_field(step, name, block, s.row_begin, s.rows, a, unit);
+  check_petsc(VecRestoreArrayRead(s.natural, &a), "VecRestoreArrayRead");
+}
+
+void ResultOutput::write_step(const State& s, bool corotational) {
+  const auto& o = deck_.output;
+  writer_.begin_step(s.step, s.time);
+  if (o.has_field("displacement")) write_point_vector(s.step, "displacement", s.u, "m");
+  if (o.has_field("velocity")) write_point_vector(s.step, "velocity", s.v, "m/s");
+  if (o.has_field("acceleration")) write_point_vector(s.step, "acceleration", s.a, "m/s^2");
+  const bool any_stress = o.has_field("stress") || o.has_field("von_mises") || o.has_field("pressure") ||
+                          o.has_field("principal_stress") || o.has_field("principal_directions");
+  if (any_stress) {
+    CellStressFields f;
+    check_petsc(compute_stress(model_, corotational, s.u, &f), "compute_stress");
+    if (o.has_field("stress")) write_cell_values(s.step, "stress", 6, f.sigma, "Pa");
+    if (o.has_field("von_mises")) write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa");
+    if (o.has_field("pressure")) write_cell_values(s.step, "pressure", 1, f.pressure, "Pa");
+    if (o.has_field("principal_stress")) write_cell_values(s.step, "principal_stress", 3, f.principal, "Pa");
+    if (o.has_field("principal_directions"))
+      write_cell_values(s.step, "principal_directions", 9, f.directions, "1");
+  }
+  writer_.end_step();
+}
+
+void ResultOutput::record_solve(std::int64_t step, double time, const solve::SolveRecord& r) {
+  output::SolveRecord rec;
+  rec.step = step;
+  rec.time = time;
+  rec.iterations = r.iterations;
+  rec.relative_residual = r.residual;
+  rec.residual_norm = r.residual_norm;
+  rec.setup_seconds = r.setup_seconds;
+  rec.solve_seconds = r.solve_seconds;
+  rec.converged_reason = r.reason;
+  writer_.append_solve(rec);
+}
+
+void ResultOutput::write_checkpoint(const State& s) {
+  std::vector<double> u, v, a;
+  const PetscScalar* p;
+  auto gather = [&](Vec x, std::vector<double>& out) {
+    check_petsc(VecScatterBegin(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check_petsc(VecScatterEnd(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check_petsc(VecGetArrayRead(points_.natural, &p), "VecGetArrayRead");
+    out.assign(p, p + 3 * points_.rows);
+    check_petsc(VecRestoreArrayRead(points_.natural, &p), "VecRestoreArrayRead");
+  };
+  gather(s.u, u);
+  gather(s.v, v);
+  gather(s.a, a);
+  writer_.write_checkpoint(s.step, s.time, points_.row_begin, points_.rows, u.data(), v.data(), a.data());
+}
+
+void ResultOutput::read_checkpoint(State* s) {
+  std::vector<double> u(3 * points_.rows), v(3 * points_.rows), a(3 * points_.rows);
+  const auto info = writer_.read_checkpoint(points_.row_begin, points_.rows, u.data(), v.data(), a.data());
+  auto scatter_back = [&](const std::vector<double>& slab, Vec x) {
+    PetscScalar* p;
+    check_petsc(VecGetArray(points_.natural, &p), "VecGetArray");
+    std::copy(slab.begin(), slab.end(), p);
+    check_petsc(VecRestoreArray(points_.natural, &p), "VecRestoreArray");
+    check_petsc(VecScatterBegin(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE), "scatter");
+    check_petsc(VecScatterEnd(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE), "scatter");
+  };
+  scatter_back(u, s->u);
+  scatter_back(v, s->v);
+  scatter_back(a, s->a);
+  s->step = info.step;
+  s->time = info.time;
+  writer_.truncate_steps_after(info.step);
+}
+
+}  // namespace hexcut::analysis

@@ -1,0 +1,69 @@
+// Glue between the solver's PETSc-ordered vectors and the result file's canonical,
+// rank-independent tables (doc/output-format.md): natural-order scatters, the mesh
+// tables, per-step fields (displacement, velocity, acceleration, stress and its derived
+// fields), solver history and checkpoints.
+#pragma once
+
+#include <petscvec.h>
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include "analysis/model.hpp"
+#include "output/result_writer.hpp"
+#include "solve/linear_solver.hpp"
+
+namespace hexcut::analysis {
+
+/// Displacement, velocity, acceleration (global vectors) at a time.
+struct State {
+  Vec u = nullptr, v = nullptr, a = nullptr;
+  double time = 0.0;
+  std::int64_t step = 0;
+};
+PetscErrorCode create_state(DM dm, State* s);
+PetscErrorCode destroy_state(State* s);
+
+/// Stress of the local cells from the global displacement (ghosts exchanged through the
+/// DM). Corotational runs use each cell's own rotation (design.md §4 "Stress").
+struct CellStressFields {
+  std::vector<double> sigma, von_mises, pressure, principal, directions;  // 6,1,1,3,9 per cell
+};
+PetscErrorCode compute_stress(const Model& model, bool corotational, Vec u, CellStressFields* out);
+
+class ResultOutput {
+ public:
+  /// Creates a new result file (mesh + input written) or, with `restart`, re-opens it.
+  ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck,
+               const std::string& path, const std::string& command_line, bool restart);
+  ~ResultOutput();
+  ResultOutput(const ResultOutput&) = delete;
+  ResultOutput& operator=(const ResultOutput&) = delete;
+
+  const std::string& path() const { return writer_.path(); }
+  output::ResultWriter& writer() { return writer_; }
+
+  /// Writes one output step with the fields the deck asks for.
+  void write_step(const State& s, bool corotational);
+  void record_solve(std::int64_t step, double time, const solve::SolveRecord& r);
+  void write_checkpoint(const State& s);
+  /// Reads the checkpoint into s (u, v, a, time, step); drops later steps from the file.
+  void read_checkpoint(State* s);
+
+ private:
+  topology::NaturalScatter& cell_scatter(int block);
+  void write_point_vector(std::int64_t step, const std::string& name, Vec v, const std::string& unit);
+  void write_cell_values(std::int64_t step, const std::string& name, int block,
+                         const std::vector<double>& values, const std::string& unit);
+
+  MPI_Comm comm_;
+  const Model& model_;
+  const deck::Deck& deck_;
+  output::ResultWriter writer_;
+  topology::NaturalScatter points_;
+  std::map<int, topology::NaturalScatter> cells_;
+  PetscInt first_local_cell_ = 0;  // PETSc-ordered cell offset of this rank
+};
+
+}  // namespace hexcut::analysis

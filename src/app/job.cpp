@@ -1,0 +1,158 @@
+#include "app/job.hpp"
+
+#include <petscsys.h>
+#include <petsctime.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "analysis/events.hpp"
+#include "analysis/model.hpp"
+#include "analysis/result_output.hpp"
+#include "analysis/simulation.hpp"
+#include "common/errors.hpp"
+#include "common/petsc_check.hpp"
+#include "solve/linear_solver.hpp"
+
+namespace hexcut::app {
+namespace {
+
+std::string format_seconds(double s) {
+  char buf[32];
+  if (s < 120) std::snprintf(buf, sizeof buf, "%.1f s", s);
+  else if (s < 7200) std::snprintf(buf, sizeof buf, "%.1f min", s / 60);
+  else std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
+  return buf;
+}
+
+}  // namespace
+
+deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string text;
+  int ok = 1;
+  if (rank == 0) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) ok = 0;
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  MPI_Bcast(&ok, 1, MPI_INT, 0, comm);
+  if (!ok) throw InputError(path + ": cannot open the deck file");
+  long n = long(text.size());
+  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
+  text.resize(n);
+  MPI_Bcast(text.data(), int(n), MPI_CHAR, 0, comm);
+  return deck::parse_deck(text, path);
+}
+
+void check_job(MPI_Comm comm, const deck::Deck& deck) {
+  analysis::Model model;
+  check_petsc(analysis::build_model(comm, deck, 8, &model), "build_model");
+  PetscPrintf(comm, "%s: deck is valid: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
+              int(model.lattice.num_cells()), 3 * int(model.copies.num_copies),
+              int(model.boundary.constraints.global_count));
+  check_petsc(analysis::destroy_model(&model), "destroy_model");
+}
+
+void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
+  namespace an = analysis;
+  const auto& ev = an::events();
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  PetscLogDouble t_start;
+  PetscTime(&t_start);
+
+  PetscInt superblock = 8, max_steps = -1;
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_superblock", &superblock, nullptr), "options");
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_max_steps", &max_steps, nullptr), "options");
+  if (superblock < 1 || (superblock & (superblock - 1)))
+    throw InputError("-hexcut_superblock must be a power of two, got " + std::to_string(superblock));
+  check_petsc(solve::set_default_options(deck.solver), "set_default_options");
+
+  an::Model model;
+  PetscLogEventBegin(ev.setup, 0, 0, 0, 0);
+  check_petsc(an::build_model(comm, deck, int(superblock), &model), "build_model");
+  PetscLogEventEnd(ev.setup, 0, 0, 0, 0);
+  PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s), solver %s\n",
+              int(model.lattice.num_cells()), int(model.copies.num_copies), 3 * int(model.copies.num_copies),
+              int(model.boundary.constraints.global_count), model.layout.num_ranks, deck::to_string(deck.solver.type));
+
+  const bool restart = !options.restart_path.empty();
+  std::string path = options.restart_path;
+  if (!restart) {
+    if (rank == 0) std::filesystem::create_directories(deck.output.directory);
+    path = (std::filesystem::path(deck.output.directory) / (deck.output.name + ".h5")).string();
+  }
+  an::ResultOutput out(comm, model, deck, path, options.command_line, restart);
+  an::Simulation sim(comm, model, deck);
+  an::State state;
+  check_petsc(an::create_state(model.dm, &state), "create_state");
+
+  const bool dynamic = deck.analysis.type == deck::Analysis::Type::dynamic;
+  const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;
+  if (restart) {
+    out.read_checkpoint(&state);
+    PetscPrintf(comm, "hexcut: restarting from %s at step %lld, t = %g s\n", path.c_str(),
+                (long long)state.step, state.time);
+  } else if (dynamic) {
+    sim.initial_acceleration(state);
+    PetscLogEventBegin(ev.output, 0, 0, 0, 0);
+    out.write_step(state, sim.corotational());
+    PetscLogEventEnd(ev.output, 0, 0, 0, 0);
+  }
+  const std::int64_t first_step = state.step;
+
+  PetscLogDouble t_loop;
+  PetscTime(&t_loop);
+  an::Observer obs;
+  std::int64_t last_its = 0;
+  double last_res = 0;
+  obs.on_solve = [&](const an::State& s, const solve::SolveRecord& r) {
+    last_its = r.iterations;
+    last_res = r.residual;
+    out.record_solve(s.step, s.time, r);
+  };
+  bool stopped_early = false;
+  obs.on_step = [&](const an::State& s) {
+    PetscLogDouble now;
+    PetscTime(&now);
+    const double wall = now - t_loop;
+    const double per_step = wall / double(s.step - first_step);
+    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  wall %s  eta %s\n", (long long)s.step,
+                (long long)total, s.time, (long long)last_its, last_res, format_seconds(wall).c_str(),
+                format_seconds(per_step * double(total - s.step)).c_str());
+    const bool last = s.step == total;
+    const bool stop = max_steps > 0 && s.step - first_step >= max_steps && !last;
+    if (last || stop || s.step % deck.output.every == 0) {
+      PetscLogEventBegin(ev.output, 0, 0, 0, 0);
+      out.write_step(s, sim.corotational());
+      PetscLogEventEnd(ev.output, 0, 0, 0, 0);
+    }
+    const int ce = deck.output.checkpoint_every;
+    if (last || stop || (ce > 0 && s.step % ce == 0)) out.write_checkpoint(s);
+    if (stop) {
+      stopped_early = true;
+      throw std::logic_error("stop");  // unwinds the analysis loop; caught below
+    }
+  };
+  try {
+    if (dynamic) sim.run_dynamic(state, obs);
+    else sim.run_static(state, obs);
+  } catch (const std::logic_error&) {
+    if (!stopped_early) throw;
+    PetscPrintf(comm, "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
+                (long long)max_steps, path.c_str());
+  }
+  PetscLogDouble t_end;
+  PetscTime(&t_end);
+  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s)\n", out.path().c_str(), out.writer().xdmf_path().c_str(),
+              t_end - t_start);
+  check_petsc(an::destroy_state(&state), "destroy_state");
+  check_petsc(an::destroy_model(&model), "destroy_model");
+}
+
+}  // namespace hexcut::app

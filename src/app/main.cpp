@@ -1,0 +1,94 @@
+// hexcut: elastic bodies on voxel lattices, cut and solved with PETSc.
+//   hexcut DECK.yaml [--restart RESULT.h5] [PETSc options]
+//   hexcut --check DECK.yaml
+//   hexcut --version
+// Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.
+#include <petscsys.h>
+
+#include <cstring>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "app/job.hpp"
+#include "common/errors.hpp"
+#include "hexcut_version.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: hexcut DECK.yaml [--restart RESULT.h5] [PETSc options]\n"
+    "       hexcut --check DECK.yaml     validate the deck only\n"
+    "       hexcut --version\n"
+    "PETSc options on the command line override the deck's solver.petsc_options.\n"
+    "hexcut options: -hexcut_superblock N (cells per partition block side, default 8),\n"
+    "                -hexcut_max_steps N (stop after N steps; continue with --restart)\n"
+    "Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.\n"
+    "See doc/user-guide.md for the deck reference.\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // hexcut's own flags are taken out before PETSc sees the rest.
+  std::string deck_path, restart;
+  bool check_only = false;
+  std::vector<char*> petsc_args{argv[0]};
+  std::string command_line;
+  for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--version") {
+      std::cout << "hexcut " << HEXCUT_VERSION << " (git " << HEXCUT_GIT_HASH << ")\n";
+      return hexcut::kExitOk;
+    } else if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      return hexcut::kExitOk;
+    } else if (a == "--check") {
+      check_only = true;
+    } else if (a == "--restart") {
+      if (i + 1 >= argc) {
+        std::cerr << "hexcut: --restart needs a result file\n" << kUsage;
+        return hexcut::kExitInvalidInput;
+      }
+      restart = argv[++i];
+    } else if (deck_path.empty() && a.size() > 0 && a[0] != '-') {
+      deck_path = a;
+    } else {
+      petsc_args.push_back(argv[i]);
+    }
+  }
+  if (deck_path.empty()) {
+    std::cerr << "hexcut: no deck given\n" << kUsage;
+    return hexcut::kExitInvalidInput;
+  }
+  petsc_args.push_back(nullptr);
+  int pargc = int(petsc_args.size()) - 1;
+  char** pargv = petsc_args.data();
+  if (PetscInitialize(&pargc, &pargv, nullptr, nullptr) != 0) return hexcut::kExitOther;
+
+  int code = hexcut::kExitOk, rank = 0, size = 1;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  try {
+    const auto deck = hexcut::app::read_deck(PETSC_COMM_WORLD, deck_path);
+    if (check_only) {
+      hexcut::app::check_job(PETSC_COMM_WORLD, deck);
+    } else {
+      hexcut::app::run_job(PETSC_COMM_WORLD, deck, {restart, command_line});
+    }
+  } catch (const hexcut::InputError& e) {
+    // Input errors are found identically on every rank; rank 0 reports.
+    if (rank == 0) std::cerr << e.what() << "\n";
+    code = hexcut::kExitInvalidInput;
+  } catch (const hexcut::SolverError& e) {
+    if (rank == 0) std::cerr << "hexcut: solver failure: " << e.what() << "\n";
+    code = hexcut::kExitSolverFailure;
+  } catch (const std::exception& e) {
+    std::cerr << "hexcut: error (rank " << rank << "): " << e.what() << "\n";
+    // Other ranks may be waiting in a collective call: abort the whole job.
+    if (size > 1) MPI_Abort(PETSC_COMM_WORLD, hexcut::kExitOther);
+    code = hexcut::kExitOther;
+  }
+  PetscFinalize();
+  return code;
+}

@@ -1,0 +1,202 @@
+#include "assembly/operator.hpp"
+
+#include <algorithm>
+
+#include "element/element.hpp"
+
+namespace hexcut::assembly {
+namespace {
+
+constexpr double kIdentity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+/// The 24x24 operator block of local cell e: w_K R K R^T + w_M M_e.
+void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A) {
+  const auto& ref = element::reference_matrices();
+  double K[element::kElementMatrixSize];
+  element::cell_stiffness(ref, cells.h, cells.lambda[e], cells.mu[e], K);
+  element::rotate_element_matrix(&cells.rotation[9 * e], K, A);
+  for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] *= w.stiffness;
+  if (w.mass != 0.0) {
+    const double m = w.mass * cells.rho[e] * cells.h * cells.h * cells.h;
+    if (w.lumped_mass) {
+      for (int i = 0; i < element::kElementDofs; ++i) A[25 * i] += m / 8.0;
+    } else {
+      // M1 acts on each component separately: entry (3q+d, 3p+d) = mass[q][p] of the
+      // scalar mass; the reference stores the full 24x24 form.
+      for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] += m * ref.mass[i];
+    }
+  }
+}
+
+}  // namespace
+
+CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D) {
+  CellData C;
+  C.h = L.spec.h;
+  const std::size_t n = D.cells.size();
+  C.lambda.resize(n);
+  C.mu.resize(n);
+  C.rho.resize(n);
+  C.origin.resize(n);
+  for (std::size_t e = 0; e < n; ++e) {
+    const auto c = D.cells[e];
+    element::lame_from_young(L.youngs[c], L.poisson[c], &C.lambda[e], &C.mu[e]);
+    C.rho[e] = L.density[c];
+    for (int d = 0; d < 3; ++d) C.origin[e][d] = L.spec.origin[d] + L.spec.h * L.ijk[c][d];
+  }
+  set_identity_rotations(C);
+  return C;
+}
+
+void set_identity_rotations(CellData& C) {
+  C.rotation.resize(9 * C.lambda.size());
+  for (std::size_t e = 0; e < C.lambda.size(); ++e) std::copy(kIdentity, kIdentity + 9, &C.rotation[9 * e]);
+}
+
+void update_rotations(const topology::DofLayout& D, const double* u_local, CellData& C) {
+  C.rotation.resize(9 * D.cells.size());
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    double u24[24], F[9];
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) u24[3 * q + d] = u_local[3 * D.cell_corners[e][q] + d];
+    element::deformation_gradient_at_centre(u24, C.h, F);
+    element::polar_rotation(F, &C.rotation[9 * e]);
+  }
+}
+
+PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
+                             const topology::Partition& P, const topology::DofLayout& D, Mat* A) {
+  PetscFunctionBeginUser;
+  // Neighbour copies of each owned copy: all corners of all its incident cells. Every
+  // rank has the whole (replicated) lattice, so cells of other ranks are visible too.
+  const PetscInt first = D.first_owned_block();
+  std::vector<std::vector<PetscInt>> neighbours(D.num_owned);
+  for (std::size_t c = 0; c < V.cell_corners.size(); ++c) {
+    for (int q = 0; q < 8; ++q) {
+      const PetscInt row = D.global_block[V.cell_corners[c][q]] - first;
+      if (row < 0 || row >= D.num_owned) continue;
+      for (int p = 0; p < 8; ++p) neighbours[row].push_back(D.global_block[V.cell_corners[c][p]]);
+    }
+  }
+  std::vector<PetscInt> d_nnz(D.num_owned), o_nnz(D.num_owned);
+  const PetscInt last = first + D.num_owned;
+  for (PetscInt r = 0; r < D.num_owned; ++r) {
+    auto& nb = neighbours[r];
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+    d_nnz[r] = std::count_if(nb.begin(), nb.end(), [&](PetscInt g) { return g >= first && g < last; });
+    o_nnz[r] = PetscInt(nb.size()) - d_nnz[r];
+    std::vector<PetscInt>().swap(nb);
+  }
+  (void)P;
+  PetscCall(MatCreate(comm, A));
+  PetscCall(MatSetSizes(*A, 3 * D.num_owned, 3 * D.num_owned, PETSC_DETERMINE, PETSC_DETERMINE));
+  PetscCall(MatSetType(*A, MATAIJ));
+  PetscCall(MatSetBlockSize(*A, 3));
+  PetscCall(MatXAIJSetPreallocation(*A, 3, d_nnz.data(), o_nnz.data(), nullptr, nullptr));
+  PetscCall(MatSetOption(*A, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(*A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
+  PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscCall(MatSetOption(*A, MAT_IGNORE_ZERO_ENTRIES, PETSC_FALSE));
+  PetscCall(MatSetOption(*A, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode assemble_matrix(const topology::DofLayout& D, const CellData& C,
+                               const OperatorWeights& w, Mat A) {
+  PetscFunctionBeginUser;
+  PetscCall(MatZeroEntries(A));
+  double Ae[element::kElementMatrixSize];
+  PetscInt idx[8];
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    cell_operator(C, e, w, Ae);
+    for (int q = 0; q < 8; ++q) idx[q] = D.global_block[D.copies[D.cell_corners[e][q]]];
+    PetscCall(MatSetValuesBlocked(A, 8, idx, 8, idx, Ae, ADD_VALUES));
+  }
+  PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+void apply_local(const topology::DofLayout& D, const CellData& C, const OperatorWeights& w,
+                 const double* x, double* y) {
+  double Ae[element::kElementMatrixSize], xe[24], ye[24];
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    cell_operator(C, e, w, Ae);
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) xe[3 * q + d] = x[3 * D.cell_corners[e][q] + d];
+    element::element_matvec(Ae, xe, ye);
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) y[3 * D.cell_corners[e][q] + d] += ye[3 * q + d];
+  }
+}
+
+PetscErrorCode global_to_local(DM dm, Vec global, Vec local) {
+  PetscFunctionBeginUser;
+  PetscCall(DMGlobalToLocalBegin(dm, global, INSERT_VALUES, local));
+  PetscCall(DMGlobalToLocalEnd(dm, global, INSERT_VALUES, local));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode apply(DM dm, const topology::DofLayout& D, const CellData& C,
+                     const OperatorWeights& w, Vec x, Vec y) {
+  PetscFunctionBeginUser;
+  Vec xl, yl;
+  PetscCall(DMGetLocalVector(dm, &xl));
+  PetscCall(DMGetLocalVector(dm, &yl));
+  PetscCall(global_to_local(dm, x, xl));
+  PetscCall(VecSet(yl, 0.0));
+  const PetscScalar* xa;
+  PetscScalar* ya;
+  PetscCall(VecGetArrayRead(xl, &xa));
+  PetscCall(VecGetArray(yl, &ya));
+  apply_local(D, C, w, xa, ya);
+  PetscCall(VecRestoreArrayRead(xl, &xa));
+  PetscCall(VecRestoreArray(yl, &ya));
+  PetscCall(VecSet(y, 0.0));
+  PetscCall(DMLocalToGlobalBegin(dm, yl, ADD_VALUES, y));
+  PetscCall(DMLocalToGlobalEnd(dm, yl, ADD_VALUES, y));
+  PetscCall(DMRestoreLocalVector(dm, &xl));
+  PetscCall(DMRestoreLocalVector(dm, &yl));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const CellData& C,
+                                    double stiffness_weight, Vec b) {
+  PetscFunctionBeginUser;
+  Vec bl;
+  PetscCall(DMGetLocalVector(dm, &bl));
+  PetscCall(VecSet(bl, 0.0));
+  PetscScalar* ba;
+  PetscCall(VecGetArray(bl, &ba));
+  const auto& ref = element::reference_matrices();
+  double K[element::kElementMatrixSize], x24[24], be[24];
+  element::corner_positions(C.h, nullptr, x24);
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    element::cell_stiffness(ref, C.h, C.lambda[e], C.mu[e], K);
+    element::corotational_rhs(&C.rotation[9 * e], K, x24, be);
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) ba[3 * D.cell_corners[e][q] + d] += stiffness_weight * be[3 * q + d];
+  }
+  PetscCall(VecRestoreArray(bl, &ba));
+  PetscCall(DMLocalToGlobalBegin(dm, bl, ADD_VALUES, b));
+  PetscCall(DMLocalToGlobalEnd(dm, bl, ADD_VALUES, b));
+  PetscCall(DMRestoreLocalVector(dm, &bl));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode reference_positions(DM dm, const lattice::Lattice& L, const topology::VertexCopies& V,
+                                   const topology::DofLayout& D, Vec* x) {
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateGlobalVector(dm, x));
+  PetscScalar* a;
+  PetscCall(VecGetArray(*x, &a));
+  for (std::int32_t i = 0; i < D.num_owned; ++i) {
+    const auto& v = V.vertex[D.copies[i]];
+    for (int d = 0; d < 3; ++d) a[3 * i + d] = L.spec.origin[d] + L.spec.h * v[d];
+  }
+  PetscCall(VecRestoreArray(*x, &a));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hexcut::assembly

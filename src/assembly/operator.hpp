@@ -1,0 +1,75 @@
+// The system operator A = w_K K^ + w_M M of the rank's cells (design.md §4), both as an
+// assembled PETSc AIJ matrix (block size 3) and as an element-by-element action on
+// local vectors. K^ = sum R^ h(lambda K_lambda + mu K_mu) R^T uses each cell's rotation
+// (identity for linear elasticity); M is the consistent or lumped mass.
+#pragma once
+
+#include <petscdm.h>
+#include <petscmat.h>
+
+#include <vector>
+
+#include "lattice/lattice.hpp"
+#include "topology/dof_layout.hpp"
+#include "topology/partition.hpp"
+#include "topology/vertex_copies.hpp"
+
+namespace hexcut::assembly {
+
+/// Material coefficients and rotations of the rank's local cells (index = position in
+/// DofLayout::cells).
+struct CellData {
+  double h = 1.0;
+  std::vector<double> lambda, mu, rho;        // per local cell
+  std::vector<double> rotation;               // 9 per local cell, row-major
+  std::vector<std::array<double, 3>> origin;  // per local cell: minimum corner [m]
+};
+
+CellData make_cell_data(const lattice::Lattice& lattice, const topology::DofLayout& layout);
+
+/// Weights of the operator A = stiffness*K^ + mass*M.
+struct OperatorWeights {
+  double stiffness = 1.0;
+  double mass = 0.0;
+  bool lumped_mass = true;
+};
+
+/// Sets every rotation to the identity (linear elasticity).
+void set_identity_rotations(CellData& cells);
+
+/// Rotations from the displacement of the local copies (3 per local copy): polar factor
+/// of each cell's centre deformation gradient (design.md §4).
+void update_rotations(const topology::DofLayout& layout, const double* u_local, CellData& cells);
+
+/// An AIJ matrix with block size 3, preallocated exactly for the copy adjacency.
+PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& copies,
+                             const topology::Partition& partition,
+                             const topology::DofLayout& layout, Mat* A);
+
+/// Zeroes A and assembles w_K K^ + w_M M into it.
+PetscErrorCode assemble_matrix(const topology::DofLayout& layout, const CellData& cells,
+                               const OperatorWeights& w, Mat A);
+
+/// y_local += A_local x_local, element by element over the rank's cells.
+void apply_local(const topology::DofLayout& layout, const CellData& cells,
+                 const OperatorWeights& w, const double* x_local, double* y_local);
+
+/// y = A x on global vectors (ghost exchange through the DM); y is overwritten.
+PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& cells,
+                     const OperatorWeights& w, Vec x, Vec y);
+
+/// b += sum over cells of -R^ K (R^T x_e - x_e): the corotational right-hand side
+/// (zero for identity rotations).
+PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout,
+                                    const CellData& cells, double stiffness_weight, Vec b);
+
+/// Reference positions of the owned copies as a global vector (bs 3), for rigid-body
+/// modes and output.
+PetscErrorCode reference_positions(DM dm, const lattice::Lattice& lattice,
+                                   const topology::VertexCopies& copies,
+                                   const topology::DofLayout& layout, Vec* x);
+
+/// Scatter a global vector to a local array (owned + ghosts), through the DM.
+PetscErrorCode global_to_local(DM dm, Vec global, Vec local);
+
+}  // namespace hexcut::assembly

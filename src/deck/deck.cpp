@@ -1,0 +1,649 @@
+// YAML deck parser. Every value is checked for type and range where it is read, and
+// every map is checked for unknown keys, so a typo never passes silently.
+#include "deck/deck.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "common/errors.hpp"
+#include "geometry/triangle_mesh.hpp"
+#include "geometry/voxel_image.hpp"
+
+namespace hexcut::deck {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Parsing context: the deck path (for messages) and its directory (relative paths
+/// in the deck are relative to the deck file, not to the working directory).
+struct Context {
+  std::string file;
+  fs::path dir;
+  const std::vector<Material>* materials = nullptr;
+  double h = 1.0;  // lattice cell size, sets default tolerances
+
+  int line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
+    throw InputError(file, line(n), msg);
+  }
+  SourceLocation where(const YAML::Node& n) const { return {file, line(n)}; }
+  std::string resolve(const std::string& p) const {
+    fs::path path(p);
+    return path.is_absolute() ? path.string() : (dir / path).lexically_normal().string();
+  }
+};
+
+void check_map(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsMap()) c.fail(n, what + " must be a map");
+}
+
+void check_keys(const Context& c, const YAML::Node& n, const std::string& what,
+                const std::set<std::string>& allowed) {
+  check_map(c, n, what);
+  for (const auto& kv : n) {
+    const auto key = kv.first.as<std::string>();
+    if (!allowed.count(key)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      c.fail(kv.first, "unknown key '" + key + "' in " + what + " (allowed: " + list + ")");
+    }
+  }
+}
+
+double get_double(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) c.fail(n, what + " must be a number");
+  try {
+    double v = n.as<double>();
+    if (!std::isfinite(v)) c.fail(n, what + " must be finite");
+    return v;
+  } catch (const YAML::Exception&) {
+    c.fail(n, what + " must be a number, got '" + n.Scalar() + "'");
+  }
+}
+
+int get_int(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) c.fail(n, what + " must be an integer");
+  try {
+    return n.as<int>();
+  } catch (const YAML::Exception&) {
+    c.fail(n, what + " must be an integer, got '" + n.Scalar() + "'");
+  }
+}
+
+std::string get_string(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) c.fail(n, what + " must be a string");
+  return n.Scalar();
+}
+
+bool get_bool(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsScalar()) c.fail(n, what + " must be true or false");
+  try {
+    return n.as<bool>();
+  } catch (const YAML::Exception&) {
+    c.fail(n, what + " must be true or false, got '" + n.Scalar() + "'");
+  }
+}
+
+Eigen::Vector3d get_vec3(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsSequence() || n.size() != 3) c.fail(n, what + " must be a list of 3 numbers");
+  return {get_double(c, n[0], what + "[0]"), get_double(c, n[1], what + "[1]"),
+          get_double(c, n[2], what + "[2]")};
+}
+
+double positive(const Context& c, const YAML::Node& n, const std::string& what) {
+  double v = get_double(c, n, what);
+  if (!(v > 0)) c.fail(n, what + " must be > 0, got " + n.Scalar());
+  return v;
+}
+
+int material_index(const Context& c, const YAML::Node& n) {
+  const std::string name = get_string(c, n, "material");
+  for (size_t i = 0; i < c.materials->size(); ++i)
+    if ((*c.materials)[i].name == name) return int(i);
+  c.fail(n, "unknown material '" + name + "' (define it under 'materials')");
+}
+
+// ---------------------------------------------------------------- shapes
+std::shared_ptr<const geometry::Shape> parse_shape_entry(const Context& c, const std::string& kind,
+                                                         const YAML::Node& n) {
+  try {
+    if (kind == "box") {
+      check_keys(c, n, "box", {"min", "max"});
+      if (!n["min"] || !n["max"]) c.fail(n, "box needs 'min' and 'max'");
+      auto lo = get_vec3(c, n["min"], "box.min"), hi = get_vec3(c, n["max"], "box.max");
+      if ((hi.array() <= lo.array()).any()) c.fail(n, "box.max must exceed box.min in every axis");
+      return geometry::make_box(lo, hi);
+    }
+    if (kind == "sphere") {
+      check_keys(c, n, "sphere", {"centre", "radius"});
+      if (!n["centre"] || !n["radius"]) c.fail(n, "sphere needs 'centre' and 'radius'");
+      return geometry::make_sphere(get_vec3(c, n["centre"], "sphere.centre"),
+                                   positive(c, n["radius"], "sphere.radius"));
+    }
+    if (kind == "cylinder") {
+      check_keys(c, n, "cylinder", {"start", "end", "radius"});
+      if (!n["start"] || !n["end"] || !n["radius"])
+        c.fail(n, "cylinder needs 'start', 'end' and 'radius'");
+      auto p0 = get_vec3(c, n["start"], "cylinder.start"), p1 = get_vec3(c, n["end"], "cylinder.end");
+      if ((p1 - p0).norm() == 0) c.fail(n, "cylinder.start and cylinder.end coincide");
+      return geometry::make_cylinder(p0, p1, positive(c, n["radius"], "cylinder.radius"));
+    }
+    if (kind == "half_space") {
+      check_keys(c, n, "half_space", {"point", "normal"});
+      if (!n["point"] || !n["normal"]) c.fail(n, "half_space needs 'point' and 'normal'");
+      auto nn = get_vec3(c, n["normal"], "half_space.normal");
+      if (nn.norm() == 0) c.fail(n, "half_space.normal must be nonzero");
+      return geometry::make_half_space(get_vec3(c, n["point"], "half_space.point"), nn);
+    }
+    if (kind == "plane") {  // selector only: a thin slab
+      check_keys(c, n, "plane", {"point", "normal", "tolerance"});
+      if (!n["point"] || !n["normal"]) c.fail(n, "plane needs 'point' and 'normal'");
+      auto nn = get_vec3(c, n["normal"], "plane.normal");
+      if (nn.norm() == 0) c.fail(n, "plane.normal must be nonzero");
+      // Default tolerance: far below any cell size, far above round-off in positions.
+      double tol = n["tolerance"] ? positive(c, n["tolerance"], "plane.tolerance") : 1e-3 * c.h;
+      return geometry::make_slab(get_vec3(c, n["point"], "plane.point"), nn.normalized(), tol);
+    }
+    if (kind == "mesh") {
+      check_keys(c, n, "mesh", {"file", "scale", "translate"});
+      if (!n["file"]) c.fail(n, "mesh needs 'file'");
+      const std::string path = c.resolve(get_string(c, n["file"], "mesh.file"));
+      geometry::TriangleMesh mesh;
+      try {
+        mesh = geometry::load_triangle_mesh(path);
+      } catch (const InputError& e) {
+        c.fail(n["file"], std::string("cannot load mesh: ") + e.what());
+      }
+      double scale = n["scale"] ? positive(c, n["scale"], "mesh.scale") : 1.0;
+      Eigen::Vector3d shift = n["translate"] ? get_vec3(c, n["translate"], "mesh.translate")
+                                             : Eigen::Vector3d::Zero();
+      geometry::transform(mesh, scale, shift);
+      return geometry::make_mesh_solid(std::move(mesh));
+    }
+  } catch (const std::invalid_argument& e) {
+    c.fail(n, e.what());
+  }
+  return nullptr;
+}
+
+const std::set<std::string> kShapeKinds = {"box", "sphere", "cylinder", "half_space", "mesh"};
+
+// ---------------------------------------------------------------- sections
+LatticeSpec parse_lattice(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "lattice", {"origin", "h", "dims", "bounds"});
+  LatticeSpec s;
+  if (!n["h"]) c.fail(n, "lattice needs 'h' (cell size in m)");
+  s.h = positive(c, n["h"], "lattice.h");
+  if (n["dims"] && n["bounds"]) c.fail(n, "lattice: give either 'dims' (with 'origin') or 'bounds', not both");
+  if (n["bounds"]) {
+    const auto& b = n["bounds"];
+    if (!b.IsSequence() || b.size() != 2) c.fail(b, "lattice.bounds must be [[xmin,ymin,zmin],[xmax,ymax,zmax]]");
+    auto lo = get_vec3(c, b[0], "lattice.bounds[0]"), hi = get_vec3(c, b[1], "lattice.bounds[1]");
+    if ((hi.array() <= lo.array()).any()) c.fail(b, "lattice.bounds: max must exceed min in every axis");
+    if (n["origin"]) c.fail(n["origin"], "lattice: 'origin' is implied by 'bounds'");
+    s.origin = lo;
+    for (int d = 0; d < 3; ++d) {
+      // A relative slack keeps 0.4/0.01 from becoming 41 cells through round-off.
+      s.dims[d] = int(std::ceil((hi[d] - lo[d]) / s.h - 1e-9));
+    }
+  } else {
+    if (!n["dims"]) c.fail(n, "lattice needs 'dims' or 'bounds'");
+    const auto& d = n["dims"];
+    if (!d.IsSequence() || d.size() != 3) c.fail(d, "lattice.dims must be a list of 3 integers");
+    for (int i = 0; i < 3; ++i) s.dims[i] = get_int(c, d[i], "lattice.dims");
+    if (n["origin"]) s.origin = get_vec3(c, n["origin"], "lattice.origin");
+  }
+  for (int i = 0; i < 3; ++i)
+    if (s.dims[i] < 1) c.fail(n, "lattice.dims must be >= 1 in every axis");
+  if (double(s.dims[0]) * s.dims[1] * s.dims[2] > 2.0e9)
+    c.fail(n, "lattice has more than 2e9 cells; hexcut uses 32-bit cell indices");
+  return s;
+}
+
+std::vector<Material> parse_materials(const Context& c, const YAML::Node& n) {
+  check_map(c, n, "materials");
+  std::vector<Material> out;
+  for (const auto& kv : n) {
+    Material m;
+    m.name = kv.first.as<std::string>();
+    const auto& v = kv.second;
+    check_keys(c, v, "material '" + m.name + "'", {"E", "nu", "rho"});
+    if (!v["E"] || !v["nu"] || !v["rho"]) c.fail(v, "material '" + m.name + "' needs E, nu and rho");
+    m.youngs_modulus = positive(c, v["E"], "E");
+    m.poisson_ratio = get_double(c, v["nu"], "nu");
+    if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5))
+      c.fail(v["nu"], "nu must be in (-1, 0.5), got " + v["nu"].Scalar());
+    m.density = positive(c, v["rho"], "rho");
+    out.push_back(m);
+  }
+  if (out.empty()) c.fail(n, "materials is empty: define at least one");
+  if (out.size() > 32000) c.fail(n, "too many materials (limit 32000)");
+  return out;
+}
+
+GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "image", {"file", "format", "dataset", "dims", "dtype", "endian", "origin",
+                             "spacing", "threshold", "labels", "material", "youngs_scale"});
+  if (!n["file"]) c.fail(n, "image needs 'file'");
+  const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
+  const std::string format = n["format"] ? get_string(c, n["format"], "image.format") : "raw";
+  Eigen::Vector3d origin = n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
+  if (!n["spacing"]) c.fail(n, "image needs 'spacing' (voxel size in m, 3 numbers)");
+  Eigen::Vector3d spacing = get_vec3(c, n["spacing"], "image.spacing");
+  if ((spacing.array() <= 0).any()) c.fail(n["spacing"], "image.spacing must be > 0");
+  std::shared_ptr<geometry::VoxelImage> image;
+  try {
+    if (format == "raw") {
+      if (!n["dims"] || !n["dtype"]) c.fail(n, "raw image needs 'dims' and 'dtype'");
+      std::array<int, 3> dims{};
+      for (int i = 0; i < 3; ++i) dims[i] = get_int(c, n["dims"][i], "image.dims");
+      bool little = !n["endian"] || get_string(c, n["endian"], "image.endian") == "little";
+      image = std::make_shared<geometry::VoxelImage>(geometry::load_raw_image(
+          path, dims, get_string(c, n["dtype"], "image.dtype"), little, origin, spacing));
+    } else if (format == "hdf5") {
+      if (!n["dataset"]) c.fail(n, "hdf5 image needs 'dataset'");
+      image = std::make_shared<geometry::VoxelImage>(geometry::load_hdf5_image(
+          path, get_string(c, n["dataset"], "image.dataset"), origin, spacing));
+    } else {
+      c.fail(n["format"], "image.format must be 'raw' or 'hdf5'");
+    }
+  } catch (const InputError& e) {
+    c.fail(n["file"], std::string("cannot load image: ") + e.what());
+  } catch (const std::invalid_argument& e) {
+    c.fail(n, std::string("image: ") + e.what());
+  }
+  GeometryStep s;
+  s.where = c.where(n);
+  s.image = image;
+  if (n["labels"]) {
+    const auto& l = n["labels"];
+    check_map(c, l, "image.labels");
+    s.kind = GeometryStep::Kind::image_labels;
+    for (const auto& kv : l) s.label_to_material[get_int(c, kv.first, "label")] = material_index(c, kv.second);
+    if (n["threshold"] || n["material"]) c.fail(n, "image: use either 'labels' or 'threshold'+'material'");
+  } else if (n["threshold"]) {
+    s.kind = GeometryStep::Kind::add;
+    s.shape = geometry::make_image_threshold(image, get_double(c, n["threshold"], "image.threshold"));
+    if (!n["material"]) c.fail(n, "image with 'threshold' needs 'material'");
+    s.material = material_index(c, n["material"]);
+  } else if (n["youngs_scale"]) {
+    s.kind = GeometryStep::Kind::image_youngs;
+  } else {
+    c.fail(n, "image needs 'labels', 'threshold' (+ 'material') or 'youngs_scale'");
+  }
+  if (n["youngs_scale"]) s.youngs_scale = positive(c, n["youngs_scale"], "image.youngs_scale");
+  return s;
+}
+
+std::vector<GeometryStep> parse_geometry(const Context& c, const YAML::Node& n) {
+  if (!n.IsSequence()) c.fail(n, "geometry must be a list of operations");
+  if (n.size() == 0) c.fail(n, "geometry is empty: add at least one shape");
+  std::vector<GeometryStep> out;
+  for (const auto& op : n) {
+    check_keys(c, op, "geometry operation", {"add", "subtract", "assign", "image", "material"});
+    int verbs = int(bool(op["add"])) + bool(op["subtract"]) + bool(op["assign"]) + bool(op["image"]);
+    if (verbs != 1) c.fail(op, "each geometry operation needs exactly one of add, subtract, assign, image");
+    if (op["image"]) {
+      if (op["material"]) c.fail(op["material"], "put 'material' inside the image map");
+      GeometryStep s = parse_image_step(c, op["image"]);
+      // A youngs-only image step must also be able to carry labels; add both when given.
+      out.push_back(s);
+      if (s.kind != GeometryStep::Kind::image_youngs && op["image"]["youngs_scale"]) {
+        s.kind = GeometryStep::Kind::image_youngs;
+        out.push_back(s);
+      }
+      continue;
+    }
+    GeometryStep s;
+    s.where = c.where(op);
+    const char* verb = op["add"] ? "add" : op["subtract"] ? "subtract" : "assign";
+    s.kind = op["add"] ? GeometryStep::Kind::add
+             : op["subtract"] ? GeometryStep::Kind::subtract : GeometryStep::Kind::assign;
+    const auto& body = op[verb];
+    check_keys(c, body, std::string(verb), kShapeKinds);
+    if (body.size() != 1) c.fail(body, std::string(verb) + " needs exactly one shape");
+    const auto kv = *body.begin();
+    s.shape = parse_shape_entry(c, kv.first.as<std::string>(), kv.second);
+    if (s.kind == GeometryStep::Kind::subtract) {
+      if (op["material"]) c.fail(op["material"], "subtract takes no material");
+    } else {
+      if (op["material"]) s.material = material_index(c, op["material"]);
+      else if (c.materials->size() == 1) s.material = 0;
+      else c.fail(op, std::string(verb) + " needs 'material' when several materials are defined");
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+Selector parse_selector(const Context& c, const YAML::Node& n, const std::string& what) {
+  std::set<std::string> allowed = kShapeKinds;
+  allowed.insert({"plane", "material", "all"});
+  check_keys(c, n, what, allowed);
+  Selector s;
+  s.where = c.where(n);
+  int shapes = 0;
+  for (const auto& kv : n) {
+    const auto key = kv.first.as<std::string>();
+    if (key == "material") {
+      s.material = material_index(c, kv.second);
+    } else if (key == "all") {
+      if (!get_bool(c, kv.second, "all")) c.fail(kv.second, "'all' may only be true");
+      ++shapes;
+    } else {
+      s.shape = parse_shape_entry(c, key, kv.second);
+      ++shapes;
+    }
+  }
+  if (shapes > 1) c.fail(n, what + ": give one shape (or 'all: true'), optionally with 'material'");
+  if (shapes == 0 && s.material < 0) c.fail(n, what + " selects nothing: give a shape, 'material' or 'all: true'");
+  return s;
+}
+
+TimeFunction parse_time_function(const Context& c, const YAML::Node& n, const std::string& what) {
+  TimeFunction f;
+  if (n.IsScalar()) {
+    f.value = get_double(c, n, what);
+    return f;
+  }
+  check_keys(c, n, what, {"constant", "ramp", "sine"});
+  if (n.size() != 1) c.fail(n, what + ": give one of constant, ramp, sine");
+  if (n["constant"]) {
+    f.value = get_double(c, n["constant"], what + ".constant");
+  } else if (n["ramp"]) {
+    const auto& r = n["ramp"];
+    check_keys(c, r, what + ".ramp", {"value", "start", "end"});
+    if (!r["value"] || !r["end"]) c.fail(r, "ramp needs 'value' and 'end' (start defaults to 0)");
+    f.kind = TimeFunction::Kind::ramp;
+    f.value = get_double(c, r["value"], "ramp.value");
+    f.start = r["start"] ? get_double(c, r["start"], "ramp.start") : 0.0;
+    f.end = get_double(c, r["end"], "ramp.end");
+    if (!(f.end > f.start)) c.fail(r, "ramp.end must be later than ramp.start");
+  } else {
+    const auto& s = n["sine"];
+    check_keys(c, s, what + ".sine", {"amplitude", "frequency", "phase"});
+    if (!s["amplitude"] || !s["frequency"]) c.fail(s, "sine needs 'amplitude' and 'frequency'");
+    f.kind = TimeFunction::Kind::sine;
+    f.value = get_double(c, s["amplitude"], "sine.amplitude");
+    f.frequency = positive(c, s["frequency"], "sine.frequency");
+    f.phase = s["phase"] ? get_double(c, s["phase"], "sine.phase") : 0.0;
+  }
+  return f;
+}
+
+int component_index(const Context& c, const YAML::Node& n) {
+  const auto s = get_string(c, n, "component");
+  if (s == "x") return 0;
+  if (s == "y") return 1;
+  if (s == "z") return 2;
+  c.fail(n, "component must be x, y or z, got '" + s + "'");
+}
+
+void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
+  check_keys(c, n, "boundary", {"fixed", "traction", "point_loads", "gravity"});
+  if (n["fixed"]) {
+    if (!n["fixed"].IsSequence()) c.fail(n["fixed"], "boundary.fixed must be a list");
+    for (const auto& f : n["fixed"]) {
+      check_keys(c, f, "fixed", {"where", "components", "value"});
+      if (!f["where"]) c.fail(f, "fixed needs 'where' (a selector)");
+      Support s;
+      s.selector = parse_selector(c, f["where"], "fixed.where");
+      if (f["components"]) {
+        const auto& comp = f["components"];
+        if (!comp.IsSequence() || comp.size() == 0) c.fail(comp, "components must be a list like [x, z]");
+        s.constrained = {false, false, false};
+        for (const auto& cc : comp) s.constrained[component_index(c, cc)] = true;
+      }
+      if (f["value"]) {
+        const auto& v = f["value"];
+        if (v.IsSequence()) {
+          if (v.size() != 3) c.fail(v, "value must be a number, a time function, or a list of 3");
+          for (int i = 0; i < 3; ++i) s.value[i] = parse_time_function(c, v[i], "value");
+        } else {
+          auto tf = parse_time_function(c, v, "value");
+          s.value = {tf, tf, tf};
+        }
+      }
+      d.supports.push_back(s);
+    }
+  }
+  if (n["traction"]) {
+    if (!n["traction"].IsSequence()) c.fail(n["traction"], "boundary.traction must be a list");
+    for (const auto& t : n["traction"]) {
+      check_keys(c, t, "traction", {"where", "value", "scale"});
+      if (!t["where"] || !t["value"]) c.fail(t, "traction needs 'where' and 'value' [Pa]");
+      Traction tr;
+      tr.selector = parse_selector(c, t["where"], "traction.where");
+      tr.value = get_vec3(c, t["value"], "traction.value");
+      tr.scale.value = 1.0;
+      if (t["scale"]) tr.scale = parse_time_function(c, t["scale"], "traction.scale");
+      d.tractions.push_back(tr);
+    }
+  }
+  if (n["point_loads"]) {
+    if (!n["point_loads"].IsSequence()) c.fail(n["point_loads"], "boundary.point_loads must be a list");
+    for (const auto& p : n["point_loads"]) {
+      check_keys(c, p, "point load", {"at", "force", "scale"});
+      if (!p["at"] || !p["force"]) c.fail(p, "point load needs 'at' [m] and 'force' [N]");
+      PointLoad pl;
+      pl.where = c.where(p);
+      pl.position = get_vec3(c, p["at"], "point_load.at");
+      pl.force = get_vec3(c, p["force"], "point_load.force");
+      pl.scale.value = 1.0;
+      if (p["scale"]) pl.scale = parse_time_function(c, p["scale"], "point_load.scale");
+      d.point_loads.push_back(pl);
+    }
+  }
+  if (n["gravity"]) d.gravity = get_vec3(c, n["gravity"], "gravity");
+}
+
+Analysis parse_analysis(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "analysis", {"type", "formulation", "load_steps", "tolerance", "max_iterations",
+                                "dt", "steps", "end_time", "rayleigh", "mass"});
+  Analysis a;
+  const auto type = n["type"] ? get_string(c, n["type"], "analysis.type") : "static";
+  if (type == "static") a.type = Analysis::Type::static_;
+  else if (type == "dynamic") a.type = Analysis::Type::dynamic;
+  else c.fail(n["type"], "analysis.type must be 'static' or 'dynamic'");
+  if (n["formulation"]) {
+    const auto f = get_string(c, n["formulation"], "analysis.formulation");
+    if (f == "linear") a.formulation = Analysis::Formulation::linear;
+    else if (f == "corotational") a.formulation = Analysis::Formulation::corotational;
+    else c.fail(n["formulation"], "analysis.formulation must be 'linear' or 'corotational'");
+  }
+  if (n["load_steps"]) {
+    a.load_steps = get_int(c, n["load_steps"], "analysis.load_steps");
+    if (a.load_steps < 1) c.fail(n["load_steps"], "analysis.load_steps must be >= 1");
+  }
+  if (n["tolerance"]) a.tolerance = positive(c, n["tolerance"], "analysis.tolerance");
+  if (n["max_iterations"]) {
+    a.max_iterations = get_int(c, n["max_iterations"], "analysis.max_iterations");
+    if (a.max_iterations < 1) c.fail(n["max_iterations"], "analysis.max_iterations must be >= 1");
+  }
+  if (a.type == Analysis::Type::dynamic) {
+    if (!n["dt"]) c.fail(n, "dynamic analysis needs 'dt' [s]");
+    a.dt = positive(c, n["dt"], "analysis.dt");
+    if (n["steps"] && n["end_time"]) c.fail(n, "give either 'steps' or 'end_time', not both");
+    if (n["steps"]) a.steps = get_int(c, n["steps"], "analysis.steps");
+    else if (n["end_time"]) a.steps = int(std::llround(positive(c, n["end_time"], "analysis.end_time") / a.dt));
+    else c.fail(n, "dynamic analysis needs 'steps' or 'end_time'");
+    if (a.steps < 1) c.fail(n, "dynamic analysis needs at least one step");
+    if (n["rayleigh"]) {
+      const auto& r = n["rayleigh"];
+      if (!r.IsSequence() || r.size() != 2) c.fail(r, "rayleigh must be [alpha1 (mass), alpha2 (stiffness)]");
+      a.rayleigh_mass = get_double(c, r[0], "rayleigh[0]");
+      a.rayleigh_stiffness = get_double(c, r[1], "rayleigh[1]");
+      if (a.rayleigh_mass < 0 || a.rayleigh_stiffness < 0) c.fail(r, "rayleigh coefficients must be >= 0");
+    }
+    if (n["mass"]) {
+      const auto m = get_string(c, n["mass"], "analysis.mass");
+      if (m == "lumped") a.mass = Analysis::Mass::lumped;
+      else if (m == "consistent") a.mass = Analysis::Mass::consistent;
+      else c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
+    }
+  } else {
+    for (const char* k : {"dt", "steps", "end_time", "rayleigh", "mass"})
+      if (n[k]) c.fail(n[k], std::string("'") + k + "' applies only to dynamic analyses");
+  }
+  return a;
+}
+
+Solver parse_solver(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "solver", {"type", "rtol", "max_iterations", "petsc_options"});
+  Solver s;
+  if (n["type"]) {
+    const auto t = get_string(c, n["type"], "solver.type");
+    if (t == "cg-jacobi") s.type = Solver::Type::cg_jacobi;
+    else if (t == "hypre") s.type = Solver::Type::hypre;
+    else if (t == "gamg") s.type = Solver::Type::gamg;
+    else if (t == "direct") s.type = Solver::Type::direct;
+    else if (t == "gmg" || t == "gmg-cycles")
+      c.fail(n["type"], "solver '" + t + "' is not implemented yet (see doc/user-guide.md); use cg-jacobi, hypre, gamg or direct");
+    else c.fail(n["type"], "solver.type must be one of cg-jacobi, hypre, gamg, direct");
+  }
+  if (n["rtol"]) {
+    s.rtol = positive(c, n["rtol"], "solver.rtol");
+    if (s.rtol >= 1) c.fail(n["rtol"], "solver.rtol must be < 1");
+  }
+  if (n["max_iterations"]) {
+    s.max_iterations = get_int(c, n["max_iterations"], "solver.max_iterations");
+    if (s.max_iterations < 1) c.fail(n["max_iterations"], "solver.max_iterations must be >= 1");
+  }
+  if (n["petsc_options"]) {
+    // A string "-a 1 -b" or a map {ksp_monitor: "", pc_type: lu}.
+    const auto& p = n["petsc_options"];
+    if (p.IsScalar()) {
+      std::istringstream in(p.Scalar());
+      std::string tok;
+      while (in >> tok) {
+        if (tok[0] == '-' && !(tok.size() > 1 && (std::isdigit(tok[1]) || tok[1] == '.'))) {
+          s.petsc_options.push_back({tok, ""});
+        } else {
+          if (s.petsc_options.empty()) c.fail(p, "petsc_options: value '" + tok + "' has no option name before it");
+          s.petsc_options.back().second = tok;
+        }
+      }
+    } else if (p.IsMap()) {
+      for (const auto& kv : p) {
+        std::string name = kv.first.as<std::string>();
+        if (name[0] != '-') name = "-" + name;
+        s.petsc_options.push_back({name, kv.second.IsNull() ? "" : kv.second.as<std::string>()});
+      }
+    } else {
+      c.fail(p, "petsc_options must be a string or a map");
+    }
+  }
+  return s;
+}
+
+Output parse_output(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "output", {"directory", "name", "every", "checkpoint_every", "fields"});
+  Output o;
+  if (n["directory"]) o.directory = get_string(c, n["directory"], "output.directory");
+  if (n["name"]) {
+    o.name = get_string(c, n["name"], "output.name");
+    if (o.name.empty() || o.name.find('/') != std::string::npos)
+      c.fail(n["name"], "output.name must be a plain file name without '/'");
+  }
+  if (n["every"]) {
+    o.every = get_int(c, n["every"], "output.every");
+    if (o.every < 1) c.fail(n["every"], "output.every must be >= 1");
+  }
+  if (n["checkpoint_every"]) {
+    o.checkpoint_every = get_int(c, n["checkpoint_every"], "output.checkpoint_every");
+    if (o.checkpoint_every < 0) c.fail(n["checkpoint_every"], "output.checkpoint_every must be >= 0");
+  }
+  if (n["fields"]) {
+    static const std::set<std::string> known = {"displacement", "velocity", "acceleration", "stress",
+                                                "von_mises", "pressure", "principal_stress",
+                                                "principal_directions"};
+    if (!n["fields"].IsSequence()) c.fail(n["fields"], "output.fields must be a list");
+    o.fields.clear();
+    for (const auto& f : n["fields"]) {
+      auto name = get_string(c, f, "field");
+      if (!known.count(name)) c.fail(f, "unknown output field '" + name + "'");
+      o.fields.push_back(name);
+    }
+  }
+  return o;
+}
+
+}  // namespace
+
+double TimeFunction::operator()(double t) const {
+  switch (kind) {
+    case Kind::constant:
+      return value;
+    case Kind::ramp:
+      if (t <= start) return 0.0;
+      if (t >= end) return value;
+      return value * (t - start) / (end - start);
+    case Kind::sine:
+      return value * std::sin(2.0 * M_PI * frequency * t + phase);
+  }
+  return value;
+}
+
+bool Output::has_field(const std::string& f) const {
+  for (const auto& x : fields)
+    if (x == f) return true;
+  return false;
+}
+
+const char* to_string(Solver::Type t) {
+  switch (t) {
+    case Solver::Type::cg_jacobi: return "cg-jacobi";
+    case Solver::Type::hypre: return "hypre";
+    case Solver::Type::gamg: return "gamg";
+    case Solver::Type::direct: return "direct";
+  }
+  return "?";
+}
+
+Deck parse_deck(const std::string& text, const std::string& path) {
+  Context c;
+  c.file = path;
+  c.dir = fs::path(path).parent_path();
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(path, e.mark.line + 1, "YAML syntax error: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path, 1, "the deck must be a YAML map of sections");
+  check_keys(c, root, "the deck", {"lattice", "materials", "geometry", "boundary", "analysis", "solver", "output"});
+  for (const char* required : {"lattice", "materials", "geometry"})
+    if (!root[required]) throw InputError(path, 1, std::string("missing section '") + required + "'");
+
+  Deck d;
+  d.path = path;
+  d.text = text;
+  d.lattice = parse_lattice(c, root["lattice"]);
+  c.h = d.lattice.h;
+  d.materials = parse_materials(c, root["materials"]);
+  c.materials = &d.materials;
+  d.geometry = parse_geometry(c, root["geometry"]);
+  if (root["boundary"]) parse_boundary(c, root["boundary"], d);
+  if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
+  if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
+  if (root["output"]) d.output = parse_output(c, root["output"]);
+  if (d.output.name.empty()) d.output.name = fs::path(path).stem().string();
+  if (d.analysis.type == Analysis::Type::static_ && d.supports.empty())
+    throw InputError(path, c.line(root), "a static analysis needs supports (boundary.fixed); without them the stiffness is singular");
+  return d;
+}
+
+Deck load_deck(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "cannot open the deck file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_deck(ss.str(), path);
+}
+
+}  // namespace hexcut::deck

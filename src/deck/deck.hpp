@@ -1,0 +1,146 @@
+// The input deck as plain data (doc/user-guide.md is the reference for every key).
+// Parsing validates everything that can be checked without voxelizing, so a wrong deck
+// fails with "deck.yaml:LINE: message" before any heavy work.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/lattice_spec.hpp"
+#include "geometry/shape.hpp"
+#include "geometry/voxel_image.hpp"
+
+namespace hexcut::deck {
+
+/// Where in the deck a value came from, for error messages found later (e.g. a
+/// selector that selects nothing is only known after voxelization).
+struct SourceLocation {
+  std::string file;
+  int line = 0;
+  std::string prefix() const { return file + ":" + std::to_string(line) + ": "; }
+};
+
+struct Material {
+  std::string name;
+  double youngs_modulus = 0.0;  // E [Pa]
+  double poisson_ratio = 0.0;   // nu [-], in (-1, 0.5)
+  double density = 0.0;         // rho [kg/m^3]
+};
+
+/// One geometry operation, applied in deck order (design.md §2 "geometry").
+struct GeometryStep {
+  enum class Kind { add, subtract, assign, image_labels, image_youngs };
+  Kind kind = Kind::add;
+  std::shared_ptr<const geometry::Shape> shape;  // add/subtract/assign
+  int material = 0;                              // add/assign
+  std::shared_ptr<const geometry::VoxelImage> image;  // image_* kinds
+  std::map<int, int> label_to_material;               // image_labels
+  double youngs_scale = 1.0;                          // image_youngs
+  SourceLocation where;
+};
+
+/// A scalar function of time: constant, linear ramp or sine.
+struct TimeFunction {
+  enum class Kind { constant, ramp, sine };
+  Kind kind = Kind::constant;
+  double value = 0.0;      // constant value, ramp end value, or sine amplitude
+  double start = 0.0;      // ramp: time at which it starts from 0 [s]
+  double end = 0.0;        // ramp: time at which it reaches `value` [s]
+  double frequency = 0.0;  // sine [Hz]
+  double phase = 0.0;      // sine [rad]
+  double operator()(double t) const;
+};
+
+/// Selects vertex copies (supports, point loads), boundary faces (tractions) or cells.
+struct Selector {
+  std::shared_ptr<const geometry::Shape> shape;  // null = everything
+  int material = -1;                             // -1 = any material
+  SourceLocation where;
+};
+
+struct Support {  // fixed or prescribed displacement
+  Selector selector;
+  std::array<bool, 3> constrained{true, true, true};
+  std::array<TimeFunction, 3> value;  // [m]
+};
+
+struct Traction {
+  Selector selector;
+  Eigen::Vector3d value{0, 0, 0};  // [Pa]
+  TimeFunction scale;              // multiplies value; default constant 1
+};
+
+struct PointLoad {
+  Eigen::Vector3d position{0, 0, 0};  // [m]; applied at the nearest vertex copy
+  Eigen::Vector3d force{0, 0, 0};     // [N]
+  TimeFunction scale;
+  SourceLocation where;
+};
+
+struct Analysis {
+  enum class Type { static_, dynamic };
+  enum class Formulation { linear, corotational };
+  enum class Mass { lumped, consistent };
+  Type type = Type::static_;
+  Formulation formulation = Formulation::linear;
+  // static corotational: fixed-point iteration per load step
+  int load_steps = 1;
+  double tolerance = 1e-6;  // ||u_k+1 - u_k|| <= tolerance * ||u_k+1||
+  int max_iterations = 50;
+  // dynamic (Newmark beta=1/4, gamma=1/2)
+  double dt = 0.0;       // [s]
+  int steps = 0;         // number of time steps (from end_time / dt if given)
+  double rayleigh_mass = 0.0;       // alpha1 [1/s]
+  double rayleigh_stiffness = 0.0;  // alpha2 [s]
+  Mass mass = Mass::lumped;
+};
+
+struct Solver {
+  enum class Type { cg_jacobi, hypre, gamg, direct };
+  Type type = Type::hypre;
+  double rtol = 1e-8;
+  int max_iterations = 10000;
+  std::vector<std::pair<std::string, std::string>> petsc_options;  // name (with '-'), value
+};
+
+struct Output {
+  std::string directory = "results";
+  std::string name;  // default: deck file stem
+  int every = 1;     // write every N steps (static: the final state is always written)
+  int checkpoint_every = 0;  // 0 = only at the end
+  std::vector<std::string> fields{"displacement", "velocity", "acceleration", "stress",
+                                  "von_mises", "pressure", "principal_stress",
+                                  "principal_directions"};
+  bool has_field(const std::string& f) const;
+};
+
+struct Deck {
+  std::string path;
+  std::string text;  // verbatim, stored in the output
+  LatticeSpec lattice;
+  std::vector<Material> materials;
+  std::vector<GeometryStep> geometry;
+  std::vector<Support> supports;
+  std::vector<Traction> tractions;
+  std::vector<PointLoad> point_loads;
+  Eigen::Vector3d gravity{0, 0, 0};  // [m/s^2]
+  Analysis analysis;
+  Solver solver;
+  Output output;
+};
+
+/// Parses and validates a deck. `text` is the file content, `path` names it in errors.
+/// Throws InputError ("path:line: message").
+Deck parse_deck(const std::string& text, const std::string& path);
+
+/// Reads the file and parses it.
+Deck load_deck(const std::string& path);
+
+const char* to_string(Solver::Type t);
+
+}  // namespace hexcut::deck

@@ -1,0 +1,112 @@
+// Corotational element operators (design.md §4, dick L2809-3007).
+//
+// A cell with rotation R (polar factor of its centre deformation gradient) contributes
+//   A_e = R^ K R^T   and   b_e = -R^ K (R^T x - x)
+// to the system A u = f + b, where R^ = diag(R, ..., R) (8 blocks), K the cell stiffness
+// and x the cell's reference corner positions. Because K annihilates rigid translations,
+// x may be given in any frame that differs by a translation (global coordinates or the
+// cell-local h*(a,b,c)); the results are the same.
+//
+// All 3x3 matrices are row-major (R[3*i + j]); 24-vectors and 24x24 matrices follow the
+// element DOF numbering of reference.hpp.
+#pragma once
+
+#include "element/host_device.hpp"
+#include "element/reference.hpp"
+
+namespace hexcut::element {
+
+/// Rotation factor R of the polar decomposition F = R S, always a proper rotation
+/// (det R = +1). For det F <= 0 (inverted or flattened cell) the singular direction of
+/// the smallest singular value is flipped, i.e. R = U diag(1,1,-1) V^T from the SVD
+/// F = U Sigma V^T; this is the rotation closest to F among proper rotations. Returns the
+/// identity when F is (numerically) zero or not finite.
+void polar_rotation(const double F[9], double R[9]);
+
+/// out = R^T v per corner (local frame from world frame). out may alias v.
+HEXCUT_HD inline void rotate_blocks_transposed(const double R[9], const double* v24,
+                                               double* out24) {
+  for (int q = 0; q < kCorners; ++q) {
+    const double a = v24[3 * q], b = v24[3 * q + 1], c = v24[3 * q + 2];
+    for (int i = 0; i < 3; ++i) out24[3 * q + i] = R[i] * a + R[3 + i] * b + R[6 + i] * c;
+  }
+}
+
+/// out = R v per corner (world frame from local frame). out may alias v.
+HEXCUT_HD inline void rotate_blocks(const double R[9], const double* v24, double* out24) {
+  for (int q = 0; q < kCorners; ++q) {
+    const double a = v24[3 * q], b = v24[3 * q + 1], c = v24[3 * q + 2];
+    for (int i = 0; i < 3; ++i) {
+      out24[3 * q + i] = R[3 * i] * a + R[3 * i + 1] * b + R[3 * i + 2] * c;
+    }
+  }
+}
+
+/// y = K v for a 24x24 row-major K.
+HEXCUT_HD inline void element_matvec(const double* K, const double* v24, double* y24) {
+  for (int i = 0; i < kElementDofs; ++i) {
+    double s = 0.0;
+    for (int j = 0; j < kElementDofs; ++j) s += K[kElementDofs * i + j] * v24[j];
+    y24[i] = s;
+  }
+}
+
+/// RKRt = R^ K R^T (24x24, row-major). RKRt may alias K: each 3x3 block is copied first.
+HEXCUT_HD inline void rotate_element_matrix(const double R[9], const double* K, double* RKRt) {
+  for (int a = 0; a < kCorners; ++a) {
+    for (int b = 0; b < kCorners; ++b) {
+      double blk[9], t[9];
+      for (int k = 0; k < 3; ++k) {
+        for (int l = 0; l < 3; ++l) blk[3 * k + l] = K[kElementDofs * (3 * a + k) + 3 * b + l];
+      }
+      for (int i = 0; i < 3; ++i) {  // t = R blk
+        for (int l = 0; l < 3; ++l) {
+          t[3 * i + l] = R[3 * i] * blk[l] + R[3 * i + 1] * blk[3 + l] + R[3 * i + 2] * blk[6 + l];
+        }
+      }
+      for (int i = 0; i < 3; ++i) {  // out = t R^T
+        for (int j = 0; j < 3; ++j) {
+          RKRt[kElementDofs * (3 * a + i) + 3 * b + j] =
+              t[3 * i] * R[3 * j] + t[3 * i + 1] * R[3 * j + 1] + t[3 * i + 2] * R[3 * j + 2];
+        }
+      }
+    }
+  }
+}
+
+/// Corotated (local-frame) displacement d = R^T (x + u) - x: the cell's deformation with
+/// its rotation removed. u may be nullptr (u = 0). Positions are taken relative to corner
+/// 0, so d is this up to a rigid translation, which K and the strain ignore; this avoids
+/// the cancellation that (x + u) - x suffers when x is a global coordinate far from 0.
+HEXCUT_HD inline void corotated_displacement(const double R[9], const double* x24,
+                                             const double* u24, double* d24) {
+  double y[kElementDofs];
+  for (int k = 0; k < kElementDofs; ++k) {
+    const double xl = x24[k] - x24[k % 3];
+    y[k] = xl + (u24 ? u24[k] : 0.0);
+  }
+  rotate_blocks_transposed(R, y, d24);
+  for (int k = 0; k < kElementDofs; ++k) d24[k] -= x24[k] - x24[k % 3];
+}
+
+/// Corotational right-hand side contribution b_e = -R^ K (R^T x - x).
+HEXCUT_HD inline void corotational_rhs(const double R[9], const double* K, const double* x24_ref,
+                                       double* b24) {
+  double d[kElementDofs], t[kElementDofs];
+  corotated_displacement(R, x24_ref, nullptr, d);
+  element_matvec(K, d, t);
+  rotate_blocks(R, t, b24);
+  for (int k = 0; k < kElementDofs; ++k) b24[k] = -b24[k];
+}
+
+/// Corotational internal (elastic) force f_e = R^ K (R^T (x + u) - x) = A_e u - b_e.
+/// It vanishes for any rigid motion whose rotation is R.
+HEXCUT_HD inline void element_force(const double R[9], const double* K, const double* x24,
+                                    const double* u24, double* f24) {
+  double d[kElementDofs], t[kElementDofs];
+  corotated_displacement(R, x24, u24, d);
+  element_matvec(K, d, t);
+  rotate_blocks(R, t, f24);
+}
+
+}  // namespace hexcut::element

@@ -1,0 +1,41 @@
+// Cell stress recovery at the centre and derived fields (design.md §4).
+#pragma once
+
+#include <cmath>
+
+namespace hexcut::element {
+
+/// Stress of one cell and the fields derived from it. Tensors are in ParaView order
+/// (xx, yy, zz, xy, yz, xz), tensor (not engineering) shear components.
+struct CellStress {
+  double sigma[6];      ///< Cauchy stress in the world frame
+  double von_mises;     ///< sqrt(3/2 s:s), s the deviator
+  double pressure;      ///< hydrostatic pressure -tr(sigma)/3 (positive = compression)
+  double principal[3];  ///< principal stresses, descending (positive = tension)
+  /// Principal directions, one per row: directions[3*i + d] is component d of the unit
+  /// eigenvector of principal[i]. The rows are orthonormal and right-handed
+  /// (row2 = row0 x row1); rows 0 and 1 have their largest-magnitude component positive,
+  /// so the (otherwise arbitrary) signs are reproducible.
+  double directions[9];
+};
+
+/// Stress at the centre of a cell: eps_loc = strain_at_centre(R^T (x + u) - x),
+/// sigma_loc = lambda tr(eps_loc) I + 2 mu eps_loc, sigma = R sigma_loc R^T, plus the
+/// derived fields. u24: corner displacements; x24_ref: reference corner positions (any
+/// frame that differs by a translation); R: the cell's rotation (row-major; identity for
+/// linear elasticity).
+CellStress recover_stress(const double* u24, const double* x24_ref, const double R[9], double h,
+                          double lambda, double mu);
+
+/// Derived fields (von Mises, pressure, principal values and directions) of a given stress
+/// tensor; the result's sigma is a copy of the input.
+CellStress stress_fields(const double sigma[6]);
+
+/// von Mises equivalent stress of a symmetric tensor in ParaView order.
+inline double von_mises_stress(const double s[6]) {
+  const double a = s[0] - s[1], b = s[1] - s[2], c = s[2] - s[0];
+  const double j2x6 = a * a + b * b + c * c + 6.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+  return j2x6 > 0.0 ? std::sqrt(0.5 * j2x6) : 0.0;
+}
+
+}  // namespace hexcut::element

@@ -1,0 +1,63 @@
+// Solid shapes for voxelization (design.md §3): anything that can answer "is this
+// point inside?". Cells are classified by their centre, so a shape is sampled, never
+// integrated.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "common/lattice_spec.hpp"
+
+namespace hexcut::geometry {
+
+/// Axis-aligned bounding box. Unbounded shapes use +-infinity on the open sides.
+struct Aabb {
+  Eigen::Vector3d lo;
+  Eigen::Vector3d hi;
+
+  bool is_finite() const { return lo.allFinite() && hi.allFinite(); }
+};
+
+class Shape {
+ public:
+  virtual ~Shape() = default;
+
+  /// Point membership; points on the surface count as inside.
+  virtual bool contains(const Eigen::Vector3d& p) const = 0;
+
+  /// Box that contains every inside point (may be infinite, see Aabb).
+  virtual Aabb bounds() const = 0;
+
+  /// Classifies the cells of the half-open index box [lo, hi) of `spec` by their centre:
+  /// inside[(i-lo0) + nx*((j-lo1) + ny*(k-lo2))] = contains(cell centre), with
+  /// nx = hi0-lo0, ny = hi1-lo1. `inside` is resized to the box size. The default
+  /// loops contains(); shapes with a faster bulk test override it.
+  virtual void classify_cells(const LatticeSpec& spec, const std::array<int, 3>& lo,
+                              const std::array<int, 3>& hi,
+                              std::vector<std::uint8_t>& inside) const;
+};
+
+using ShapePtr = std::shared_ptr<const Shape>;
+
+/// Closed box [lo, hi]; requires lo < hi componentwise.
+ShapePtr make_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
+
+/// Closed ball |p - centre| <= radius; requires radius > 0.
+ShapePtr make_sphere(const Eigen::Vector3d& centre, double radius);
+
+/// Finite cylinder with flat caps, axis from p0 to p1; requires p0 != p1, radius > 0.
+ShapePtr make_cylinder(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius);
+
+/// Half-space (p - point)·normal <= 0, i.e. the normal points out of the solid.
+/// Requires a nonzero normal (it need not be unit length).
+ShapePtr make_half_space(const Eigen::Vector3d& point, const Eigen::Vector3d& normal);
+
+/// Slab |(p - point)·n| <= half_thickness with n = normal/|normal|; a thin slab selects
+/// the points of a plane (boundary conditions). Requires half_thickness >= 0.
+ShapePtr make_slab(const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                   double half_thickness);
+
+}  // namespace hexcut::geometry

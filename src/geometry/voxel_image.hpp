@@ -1,0 +1,49 @@
+// 3D voxel images (CT scans, label maps, stiffness maps) read from raw or HDF5 files.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "geometry/shape.hpp"
+
+namespace hexcut::geometry {
+
+/// A scalar field on a regular grid. Voxel (i,j,k) covers the box
+/// origin + spacing∘[i,i+1]x[j,j+1]x[k,k+1] (origin is a corner, as for LatticeSpec).
+struct VoxelImage {
+  std::array<int, 3> dims{0, 0, 0};
+  Eigen::Vector3d origin{0.0, 0.0, 0.0};
+  Eigen::Vector3d spacing{1.0, 1.0, 1.0};
+  std::vector<float> values;  // x fastest: i + dims[0]*(j + dims[1]*k)
+
+  /// Value of the voxel containing p (nearest-voxel sampling); NaN outside the image.
+  double sample(const Eigen::Vector3d& p) const;
+
+  /// Extent of the image, origin to origin + spacing∘dims.
+  Aabb bounds() const;
+};
+
+/// Reads a headerless raw file of dims[0]*dims[1]*dims[2] values, x fastest. dtype is one
+/// of "uint8", "uint16", "int16", "int32", "float32", "float64". Throws hexcut::InputError
+/// for a missing file or a size that does not match, std::invalid_argument for a bad
+/// dtype, dims or spacing.
+VoxelImage load_raw_image(const std::string& path, const std::array<int, 3>& dims,
+                          const std::string& dtype, bool little_endian = true,
+                          const Eigen::Vector3d& origin = Eigen::Vector3d::Zero(),
+                          const Eigen::Vector3d& spacing = Eigen::Vector3d::Ones());
+
+/// Reads a 3D dataset of any numeric type from an HDF5 file. The dataset is stored in C
+/// order with shape [nz][ny][nx] (x fastest in memory, as numpy/h5py write a
+/// z,y,x-indexed array), so it maps onto VoxelImage::values without reordering.
+/// Throws hexcut::InputError for a missing file or dataset or a rank other than 3.
+VoxelImage load_hdf5_image(const std::string& path, const std::string& dataset,
+                           const Eigen::Vector3d& origin = Eigen::Vector3d::Zero(),
+                           const Eigen::Vector3d& spacing = Eigen::Vector3d::Ones());
+
+/// Solid where image->sample(p) >= threshold (never outside the image).
+ShapePtr make_image_threshold(std::shared_ptr<const VoxelImage> image, double threshold);
+
+}  // namespace hexcut::geometry

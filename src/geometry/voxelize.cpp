@@ -1,0 +1,132 @@
+#include "geometry/voxelize.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace hexcut::geometry {
+namespace {
+
+void check_grid(const VoxelGrid& grid) {
+  if (grid.spec.h <= 0.0 || !std::isfinite(grid.spec.h)) {
+    throw std::invalid_argument("voxel grid: cell size h must be positive");
+  }
+  if (static_cast<std::int64_t>(grid.material.size()) != grid.spec.num_cells()) {
+    throw std::invalid_argument("voxel grid: material has " + std::to_string(grid.material.size()) +
+                                " entries for " + std::to_string(grid.spec.num_cells()) +
+                                " cells (use make_empty_grid)");
+  }
+  if (!grid.youngs.empty() && grid.youngs.size() != grid.material.size()) {
+    throw std::invalid_argument("voxel grid: youngs must be empty or have one entry per cell");
+  }
+}
+
+std::int16_t checked_material(int material) {
+  if (material < 0 || material > std::numeric_limits<std::int16_t>::max()) {
+    throw std::invalid_argument("voxel grid: material id " + std::to_string(material) +
+                                " outside [0, 32767]");
+  }
+  return static_cast<std::int16_t>(material);
+}
+
+// Cells whose centre may lie in `box`, as a half-open index box clipped to the lattice.
+// Padded by one cell so that round-off in the bounds cannot drop a boundary cell.
+void cell_box(const LatticeSpec& spec, const Aabb& box, std::array<int, 3>& lo,
+              std::array<int, 3>& hi) {
+  for (int a = 0; a < 3; ++a) {
+    const double first = std::floor((box.lo[a] - spec.origin[a]) / spec.h - 0.5) - 1.0;
+    const double last = std::floor((box.hi[a] - spec.origin[a]) / spec.h - 0.5) + 1.0;
+    if (std::isnan(first) || std::isnan(last)) {
+      lo[a] = 0;
+      hi[a] = spec.dims[a];
+      continue;
+    }
+    // Clamping in double first keeps infinite bounds (half-spaces) from overflowing int.
+    lo[a] = static_cast<int>(std::clamp(first, 0.0, double(spec.dims[a])));
+    hi[a] = static_cast<int>(std::clamp(last + 1.0, 0.0, double(spec.dims[a])));
+    hi[a] = std::max(hi[a], lo[a]);
+  }
+}
+
+}  // namespace
+
+VoxelGrid make_empty_grid(const LatticeSpec& spec) {
+  for (int d : spec.dims) {
+    if (d < 0) throw std::invalid_argument("voxel grid: negative lattice dimension");
+  }
+  VoxelGrid grid;
+  grid.spec = spec;
+  grid.material.assign(spec.num_cells(), -1);
+  return grid;
+}
+
+void apply(VoxelGrid& grid, const GeometryOp& op) {
+  check_grid(grid);
+  if (!op.shape) throw std::invalid_argument("geometry op: null shape");
+  const std::int16_t mat =
+      op.mode == OpMode::subtract ? std::int16_t(-1) : checked_material(op.material);
+  std::array<int, 3> lo, hi;
+  cell_box(grid.spec, op.shape->bounds(), lo, hi);
+  std::vector<std::uint8_t> inside;
+  op.shape->classify_cells(grid.spec, lo, hi, inside);
+  std::int64_t c = 0;
+  for (int k = lo[2]; k < hi[2]; ++k) {
+    for (int j = lo[1]; j < hi[1]; ++j) {
+      for (int i = lo[0]; i < hi[0]; ++i, ++c) {
+        if (!inside[c]) continue;
+        std::int16_t& m = grid.material[grid.spec.cell_index(i, j, k)];
+        if (op.mode == OpMode::assign && m < 0) continue;
+        m = mat;
+      }
+    }
+  }
+}
+
+void apply_image_labels(VoxelGrid& grid, const VoxelImage& image,
+                        const std::map<int, int>& label_to_material) {
+  check_grid(grid);
+  std::map<int, std::int16_t> table;
+  for (const auto& [label, material] : label_to_material) table[label] = checked_material(material);
+  std::array<int, 3> lo, hi;
+  cell_box(grid.spec, image.bounds(), lo, hi);
+  for (int k = lo[2]; k < hi[2]; ++k) {
+    for (int j = lo[1]; j < hi[1]; ++j) {
+      for (int i = lo[0]; i < hi[0]; ++i) {
+        const double v = image.sample(grid.spec.cell_centre(i, j, k));
+        if (!std::isfinite(v) || std::abs(v) > 2e9) continue;
+        const auto it = table.find(static_cast<int>(std::lround(v)));
+        if (it != table.end()) grid.material[grid.spec.cell_index(i, j, k)] = it->second;
+      }
+    }
+  }
+}
+
+void apply_image_youngs(VoxelGrid& grid, const VoxelImage& image, double scale) {
+  check_grid(grid);
+  if (!std::isfinite(scale)) throw std::invalid_argument("image youngs: scale is not finite");
+  if (grid.youngs.empty()) {
+    grid.youngs.assign(grid.material.size(), std::numeric_limits<double>::quiet_NaN());
+  }
+  std::array<int, 3> lo, hi;
+  cell_box(grid.spec, image.bounds(), lo, hi);
+  for (int k = lo[2]; k < hi[2]; ++k) {
+    for (int j = lo[1]; j < hi[1]; ++j) {
+      for (int i = lo[0]; i < hi[0]; ++i) {
+        const std::int64_t c = grid.spec.cell_index(i, j, k);
+        if (grid.material[c] < 0) continue;
+        const double v = image.sample(grid.spec.cell_centre(i, j, k));
+        if (std::isnan(v)) continue;
+        grid.youngs[c] = scale * v;
+      }
+    }
+  }
+}
+
+std::int64_t count_filled(const VoxelGrid& grid) {
+  return std::count_if(grid.material.begin(), grid.material.end(),
+                       [](std::int16_t m) { return m >= 0; });
+}
+
+}  // namespace hexcut::geometry

@@ -1,0 +1,56 @@
+// Voxelization: builds the per-cell material table of the lattice from a sequence of
+// CSG-like operations (design.md §3).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "common/lattice_spec.hpp"
+#include "geometry/shape.hpp"
+#include "geometry/voxel_image.hpp"
+
+namespace hexcut::geometry {
+
+struct VoxelGrid {
+  LatticeSpec spec;
+  std::vector<std::int16_t> material;  // dense, x fastest (LatticeSpec::cell_index), -1 = empty
+  std::vector<double> youngs;  // empty, or dense per-cell Young's modulus; NaN = use material
+};
+
+/// A grid of spec.num_cells() empty cells and no Young's modulus override.
+VoxelGrid make_empty_grid(const LatticeSpec& spec);
+
+enum class OpMode {
+  add,       // inside cells get `material` (filled or not)
+  subtract,  // inside cells become empty
+  assign,    // inside cells that are already filled get `material`; empty ones stay empty
+};
+
+struct GeometryOp {
+  OpMode mode = OpMode::add;
+  std::shared_ptr<const Shape> shape;
+  int material = 0;
+};
+
+/// Applies one operation to the cells whose centre is inside op.shape. Only the cells
+/// within the shape's bounds (clipped to the lattice) are visited. Throws
+/// std::invalid_argument for a null shape, a material outside [0, 32767], or a grid
+/// whose material array does not match its spec.
+void apply(VoxelGrid& grid, const GeometryOp& op);
+
+/// Label map: every cell whose centre samples a label listed in label_to_material gets
+/// that material (an add); other cells are untouched. Labels are rounded to integers.
+void apply_image_labels(VoxelGrid& grid, const VoxelImage& image,
+                        const std::map<int, int>& label_to_material);
+
+/// Stiffness map: every filled cell gets youngs = scale * sample(cell centre); cells
+/// outside the image keep their value (NaN = use material). Allocates youngs (all NaN)
+/// on first use.
+void apply_image_youngs(VoxelGrid& grid, const VoxelImage& image, double scale);
+
+/// Number of filled cells (material >= 0).
+std::int64_t count_filled(const VoxelGrid& grid);
+
+}  // namespace hexcut::geometry

@@ -1,0 +1,571 @@
+#include "output/result_writer.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "hexcut_version.hpp"
+
+namespace hexcut::output {
+namespace {
+
+constexpr const char* kFormatName = "hexcut-result";
+constexpr std::int64_t kFormatVersion = 1;
+
+const char* const kHistoryColumns[] = {
+    "step",          "time",          "iterations",      "residual_norm", "relative_residual",
+    "setup_seconds", "solve_seconds", "converged_reason"};
+
+/// Runs `f` on rank 0 only and re-throws its error (if any) on every rank.
+template <class F>
+void on_rank0(MPI_Comm comm, F&& f) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  std::string error;
+  if (rank == 0) {
+    try {
+      f();
+    } catch (const std::exception& e) {
+      error = e.what();
+      if (error.empty()) error = "unknown error";
+    }
+  }
+  int length = static_cast<int>(error.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, comm);
+  if (length > 0) {
+    error.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(error.data(), length, MPI_CHAR, 0, comm);
+    throw std::runtime_error(error);
+  }
+}
+
+std::string system_error(const std::string& what, const std::string& path) {
+  return what + " '" + path + "' failed: " + std::strerror(errno);
+}
+
+void fsync_path(const std::string& path) {
+  int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) throw std::runtime_error(system_error("open for fsync", path));
+  int status = ::fsync(fd);
+  ::close(fd);
+  if (status != 0) throw std::runtime_error(system_error("fsync", path));
+}
+
+std::string dirname_of(const std::string& path) {
+  auto pos = path.find_last_of('/');
+  if (pos == std::string::npos) return ".";
+  if (pos == 0) return "/";
+  return path.substr(0, pos);
+}
+
+std::string basename_of(const std::string& path) {
+  auto pos = path.find_last_of('/');
+  return pos == std::string::npos ? path : path.substr(pos + 1);
+}
+
+/// rename(2) `from` onto `to`, then fsync the directory so the rename is durable.
+void atomic_rename(const std::string& from, const std::string& to) {
+  if (std::rename(from.c_str(), to.c_str()) != 0)
+    throw std::runtime_error(system_error("rename '" + from + "' to", to));
+  int fd = ::open(dirname_of(to).c_str(), O_RDONLY | O_DIRECTORY);
+  if (fd >= 0) {
+    ::fsync(fd);  // best effort: some file systems refuse fsync on directories
+    ::close(fd);
+  }
+}
+
+void validate_name(const std::string& name) {
+  if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "..")
+    throw std::invalid_argument("output: bad field name '" + name + "'");
+}
+
+void require(bool condition, const std::string& message) {
+  if (!condition) throw std::invalid_argument("output: " + message);
+}
+
+/// Throws on every rank when `condition` is false on any rank (keeps ranks in step).
+void require_all(MPI_Comm comm, bool condition, const std::string& message) {
+  int ok = condition ? 1 : 0, all = 0;
+  MPI_Allreduce(&ok, &all, 1, MPI_INT, MPI_MIN, comm);
+  require(all == 1, message + " (on some rank)");
+}
+
+/// True on every rank when `flag` is true on any rank.
+bool any_rank(MPI_Comm comm, bool flag) {
+  int mine = flag ? 1 : 0, any = 0;
+  MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, comm);
+  return any == 1;
+}
+
+std::string xml_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string format_double(double value) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+bool all_digits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+}  // namespace
+
+std::string step_group(std::int64_t step) {
+  if (step < 0 || step > 999999) throw std::invalid_argument("output: step out of range");
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "/steps/%06lld", static_cast<long long>(step));
+  return buffer;
+}
+
+std::string xdmf_path_for(const std::string& h5_path) {
+  const std::string ext = ".h5";
+  if (h5_path.size() > ext.size() &&
+      h5_path.compare(h5_path.size() - ext.size(), ext.size(), ext) == 0)
+    return h5_path.substr(0, h5_path.size() - ext.size()) + ".xmf";
+  return h5_path + ".xmf";
+}
+
+// ------------------------------------------------------------------------------- XDMF
+namespace {
+
+struct XdmfContext {
+  H5File& file;
+  std::string h5_name;  // basename, XML-escaped
+  std::ostringstream& out;
+};
+
+/// A <DataItem> for dataset `path`, with dimensions and number type read from the file.
+void data_item(XdmfContext& x, const std::string& path, const std::string& indent) {
+  std::vector<std::int64_t> d = x.file.dims(path);
+  auto [cls, size] = x.file.element_type(path);
+  std::string number_type = cls == "float" ? "Float" : (cls == "uint" ? "UInt" : "Int");
+  if (cls == "uint" && size == 1) number_type = "UChar";
+  std::string dims;
+  for (std::size_t i = 0; i < d.size(); ++i) dims += (i ? " " : "") + std::to_string(d[i]);
+  x.out << indent << "<DataItem Dimensions=\"" << dims << "\" NumberType=\"" << number_type
+        << "\" Precision=\"" << size << "\" Format=\"HDF\">" << x.h5_name << ":" << xml_escape(path)
+        << "</DataItem>\n";
+}
+
+const char* attribute_type(const std::vector<std::int64_t>& d) {
+  if (d.size() == 1) return "Scalar";
+  if (d.size() == 2 && d[1] == 1) return "Scalar";
+  if (d.size() == 2 && d[1] == 3) return "Vector";
+  if (d.size() == 2 && d[1] == 6) return "Tensor6";
+  if (d.size() == 2 && d[1] == 9) return "Tensor";
+  return "Matrix";
+}
+
+void attribute(XdmfContext& x, const std::string& name, const std::string& path,
+               const std::string& center) {
+  std::vector<std::int64_t> d = x.file.dims(path);
+  x.out << "        <Attribute Name=\"" << xml_escape(name) << "\" AttributeType=\""
+        << attribute_type(d) << "\" Center=\"" << center << "\">\n";
+  data_item(x, path, "          ");
+  x.out << "        </Attribute>\n";
+}
+
+}  // namespace
+
+void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
+  H5File file = H5File::open(h5_path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  std::ostringstream out;
+  XdmfContext x{file, xml_escape(basename_of(h5_path)), out};
+  out << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+      << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+      << "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
+      << "  <Domain>\n"
+      << "    <Grid Name=\"hexcut\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  std::vector<std::string> steps =
+      file.is_group("/steps") ? file.list("/steps") : std::vector<std::string>{};
+  for (const std::string& name : steps) {
+    const std::string group = "/steps/" + name;
+    if (!all_digits(name) || !file.is_group(group)) continue;
+    if (!file.has_attribute(group, "complete") || file.read_attribute_int64(group, "complete") != 1)
+      continue;
+    std::string mesh = file.has_attribute(group, "mesh") ? file.read_attribute_string(group, "mesh")
+                                                         : std::string("/mesh");
+    const std::int64_t num_points = file.dims(mesh + "/points").at(0);
+    const std::int64_t num_cells = file.dims(mesh + "/cells").at(0);
+    out << "      <Grid Name=\"step_" << name << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << format_double(file.read_attribute_double(group, "time"))
+        << "\"/>\n"
+        << "        <Topology TopologyType=\"Hexahedron\" NumberOfElements=\"" << num_cells
+        << "\">\n";
+    data_item(x, mesh + "/cells", "          ");
+    out << "        </Topology>\n"
+        << "        <Geometry GeometryType=\"XYZ\">\n";
+    data_item(x, mesh + "/points", "          ");
+    out << "        </Geometry>\n";
+    for (const char* cell_table : {"cell_material", "cell_youngs_modulus"}) {
+      if (file.exists(mesh + "/" + cell_table))
+        attribute(x, cell_table, mesh + "/" + cell_table, "Cell");
+    }
+    for (const std::string& field : file.list(group)) {
+      const std::string path = group + "/" + field;
+      if (file.is_group(path)) continue;
+      auto cls = file.element_type(path).first;
+      if (cls != "float" && cls != "int" && cls != "uint") continue;
+      std::string centering = file.has_attribute(path, "centering")
+                                  ? file.read_attribute_string(path, "centering")
+                                  : std::string();
+      if (centering.empty()) {
+        std::int64_t rows = file.dims(path).at(0);
+        centering = rows == num_points ? "point" : (rows == num_cells ? "cell" : "");
+      }
+      if (centering == "point") attribute(x, field, path, "Node");
+      if (centering == "cell") attribute(x, field, path, "Cell");
+    }
+    out << "      </Grid>\n";
+  }
+  out << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  file.close();
+
+  const std::string tmp = xmf_path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (f == nullptr) throw std::runtime_error(system_error("open", tmp));
+  const std::string text = out.str();
+  bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  ok = std::fflush(f) == 0 && ok;
+  ok = ::fsync(::fileno(f)) == 0 && ok;
+  ok = std::fclose(f) == 0 && ok;
+  if (!ok) throw std::runtime_error(system_error("write", tmp));
+  atomic_rename(tmp, xmf_path);
+}
+
+// ------------------------------------------------------------------------ ResultWriter
+ResultWriter ResultWriter::create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
+                                  const RunInfo& run) {
+  const Slab& p = mesh.points;
+  const Slab& c = mesh.cells;
+  require_all(
+      comm, p.row_offset >= 0 && p.local_rows >= 0 && p.row_offset + p.local_rows <= p.global_rows,
+      "bad point slab");
+  require_all(
+      comm, c.row_offset >= 0 && c.local_rows >= 0 && c.row_offset + c.local_rows <= c.global_rows,
+      "bad cell slab");
+  require_all(comm, p.local_rows == 0 || mesh.positions != nullptr, "mesh positions missing");
+  require_all(comm,
+              c.local_rows == 0 ||
+                  (mesh.connectivity && mesh.lattice_index && mesh.material && mesh.youngs_modulus),
+              "mesh cell tables missing");
+
+  ResultWriter writer(path, comm);
+  writer.num_points_ = p.global_rows;
+  writer.num_cells_ = c.global_rows;
+  const std::string tmp = path + ".tmp";
+  {
+    H5File f = H5File::create(tmp, comm);
+    f.write_attribute("/", "format", kFormatName);
+    f.write_attribute("/", "format_version", kFormatVersion);
+
+    f.write_rows("/mesh/points", p.global_rows, 3, p.row_offset, p.local_rows, mesh.positions);
+    f.write_rows("/mesh/cells", c.global_rows, 8, c.row_offset, c.local_rows, mesh.connectivity);
+    f.write_rows("/mesh/cell_lattice_index", c.global_rows, 3, c.row_offset, c.local_rows,
+                 mesh.lattice_index);
+    f.write_rows("/mesh/cell_material", c.global_rows, 0, c.row_offset, c.local_rows,
+                 mesh.material);
+    f.write_rows("/mesh/cell_youngs_modulus", c.global_rows, 0, c.row_offset, c.local_rows,
+                 mesh.youngs_modulus);
+    f.write_attribute("/mesh/points", "unit", "m");
+    f.write_attribute("/mesh/cell_youngs_modulus", "unit", "Pa");
+    const LatticeSpec& l = mesh.lattice;
+    f.write_attribute("/mesh", "lattice_origin",
+                      std::vector<double>{l.origin.x(), l.origin.y(), l.origin.z()});
+    f.write_attribute("/mesh", "lattice_h", l.h);
+    f.write_attribute("/mesh", "lattice_dims",
+                      std::vector<std::int64_t>{l.dims[0], l.dims[1], l.dims[2]});
+    f.write_attribute("/mesh", "num_points", p.global_rows);
+    f.write_attribute("/mesh", "num_cells", c.global_rows);
+
+    f.write_string_dataset("/input/deck", run.deck);
+    f.write_string_dataset("/input/command_line", run.command_line);
+    unsigned major = 0, minor = 0, release = 0;
+    H5get_libversion(&major, &minor, &release);
+    f.write_attribute("/input", "hexcut_version", HEXCUT_VERSION);
+    f.write_attribute("/input", "hexcut_git_hash", HEXCUT_GIT_HASH);
+    f.write_attribute(
+        "/input", "hdf5_version",
+        std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(release));
+    f.create_group("/steps");
+    f.write_attribute("/steps", "last_complete_step", std::int64_t{-1});
+    f.close();
+  }
+  MPI_Barrier(comm);
+  on_rank0(comm, [&] {
+    fsync_path(tmp);
+    atomic_rename(tmp, path);
+    write_xdmf(path, xdmf_path_for(path));
+  });
+  return writer;
+}
+
+ResultWriter ResultWriter::open(const std::string& path, MPI_Comm comm) {
+  ResultWriter writer(path, comm);
+  H5File f = H5File::open(path, comm, H5File::Access::kReadOnly);
+  if (!f.has_attribute("/", "format") || f.read_attribute_string("/", "format") != kFormatName)
+    throw std::runtime_error("output: '" + path + "' is not a hexcut result file");
+  writer.num_points_ = f.dims("/mesh/points").at(0);
+  writer.num_cells_ = f.dims("/mesh/cells").at(0);
+  writer.last_complete_step_ = f.read_attribute_int64("/steps", "last_complete_step");
+  f.close();
+  return writer;
+}
+
+ResultWriter::~ResultWriter() {
+  // Leaves an open step incomplete (it is not listed in the XDMF); H5Fclose is collective,
+  // so this only ends cleanly when every rank destroys the writer.
+  if (file_.is_open()) {
+    try {
+      file_.close();
+    } catch (...) {
+    }
+  }
+}
+
+void ResultWriter::open_file() {
+  if (!file_.is_open()) file_ = H5File::open(path_, comm_, H5File::Access::kReadWrite);
+}
+
+void ResultWriter::close_file() {
+  file_.close();
+  MPI_Barrier(comm_);
+}
+
+void ResultWriter::begin_step(std::int64_t step, double time) {
+  if (step_open_)
+    throw std::logic_error("output: begin_step(" + std::to_string(step) + ") while step " +
+                           std::to_string(open_step_) + " is open");
+  const std::string group = step_group(step);
+  open_file();
+  if (file_.exists(group)) file_.delete_link(group);
+  file_.create_group(group);
+  file_.write_attribute(group, "step", step);
+  file_.write_attribute(group, "time", time);
+  file_.write_attribute(group, "complete", std::int64_t{0});
+  file_.write_attribute(group, "mesh", "/mesh");
+  step_open_ = true;
+  open_step_ = step;
+}
+
+void ResultWriter::write_field(std::int64_t step, const std::string& name, const char* centering,
+                               std::int64_t global_rows, int cols, std::int64_t row_offset,
+                               std::int64_t local_rows, const double* data,
+                               const std::string& unit) {
+  if (!step_open_ || step != open_step_)
+    throw std::logic_error("output: field '" + name + "' written for step " + std::to_string(step) +
+                           ", which is not the open step");
+  validate_name(name);
+  require(cols >= 1, "field '" + name + "' needs cols >= 1");
+  const std::string path = step_group(step) + "/" + name;
+  file_.write_rows(path, global_rows, cols == 1 ? 0 : cols, row_offset, local_rows, data);
+  file_.write_attribute(path, "centering", centering);
+  if (!unit.empty()) file_.write_attribute(path, "unit", unit);
+}
+
+void ResultWriter::write_point_field(std::int64_t step, const std::string& name, int cols,
+                                     std::int64_t row_offset, std::int64_t local_rows,
+                                     const double* data, const std::string& unit) {
+  write_field(step, name, "point", num_points_, cols, row_offset, local_rows, data, unit);
+}
+
+void ResultWriter::write_cell_field(std::int64_t step, const std::string& name, int cols,
+                                    std::int64_t row_offset, std::int64_t local_rows,
+                                    const double* data, const std::string& unit) {
+  write_field(step, name, "cell", num_cells_, cols, row_offset, local_rows, data, unit);
+}
+
+void ResultWriter::end_step() {
+  if (!step_open_) throw std::logic_error("output: end_step without begin_step");
+  const std::string group = step_group(open_step_);
+  file_.flush();  // the data reaches the file before the step is marked complete
+  file_.write_attribute(group, "complete", std::int64_t{1});
+  last_complete_step_ = std::max(last_complete_step_, open_step_);
+  file_.write_attribute("/steps", "last_complete_step", last_complete_step_);
+  file_.flush();
+  step_open_ = false;
+  open_step_ = -1;
+  close_file();
+  rewrite_xdmf();
+}
+
+void ResultWriter::append_solve_open(const SolveRecord& r) {
+  file_.append_1d("/solver_history/step", &r.step, 1);
+  file_.append_1d("/solver_history/time", &r.time, 1);
+  file_.append_1d("/solver_history/iterations", &r.iterations, 1);
+  file_.append_1d("/solver_history/residual_norm", &r.residual_norm, 1);
+  file_.append_1d("/solver_history/relative_residual", &r.relative_residual, 1);
+  file_.append_1d("/solver_history/setup_seconds", &r.setup_seconds, 1);
+  file_.append_1d("/solver_history/solve_seconds", &r.solve_seconds, 1);
+  file_.append_1d("/solver_history/converged_reason", &r.converged_reason, 1);
+}
+
+void ResultWriter::append_solve(const SolveRecord& record) {
+  if (step_open_) {
+    append_solve_open(record);
+    return;
+  }
+  open_file();
+  append_solve_open(record);
+  close_file();
+}
+
+void ResultWriter::write_checkpoint(std::int64_t step, double time, std::int64_t point_offset,
+                                    std::int64_t local_points, const double* u, const double* v,
+                                    const double* a, const Slab& links, int link_cols,
+                                    const std::int32_t* link_data) {
+  const bool opened_here = !file_.is_open();
+  open_file();
+  std::int64_t current = file_.has_attribute("/checkpoint", "current_slot")
+                             ? file_.read_attribute_int64("/checkpoint", "current_slot")
+                             : -1;
+  const std::int64_t slot = current == 0 ? 1 : 0;
+  const std::string base = "/checkpoint/slot" + std::to_string(slot);
+  // Invalidate the slot before overwriting it.
+  file_.create_group(base);
+  file_.write_attribute(base, "complete", std::int64_t{0});
+  file_.write_rows(base + "/displacement", num_points_, 3, point_offset, local_points, u);
+  file_.write_rows(base + "/velocity", num_points_, 3, point_offset, local_points, v);
+  file_.write_rows(base + "/acceleration", num_points_, 3, point_offset, local_points, a);
+  if (links.global_rows > 0) {
+    file_.write_rows(base + "/topology/links", links.global_rows, link_cols, links.row_offset,
+                     links.local_rows, link_data);
+  } else if (file_.exists(base + "/topology/links")) {
+    file_.delete_link(base + "/topology/links");
+  }
+  file_.write_attribute(base, "step", step);
+  file_.write_attribute(base, "time", time);
+  file_.flush();
+  file_.write_attribute(base, "complete", std::int64_t{1});
+  file_.flush();
+  file_.write_attribute("/checkpoint", "current_slot", slot);
+  file_.write_attribute("/checkpoint", "step", step);
+  file_.write_attribute("/checkpoint", "time", time);
+  if (opened_here) {
+    close_file();
+  } else {
+    file_.flush();
+  }
+}
+
+std::optional<CheckpointInfo> ResultWriter::checkpoint_info() {
+  const bool opened_here = !file_.is_open();
+  open_file();
+  std::optional<CheckpointInfo> info;
+  if (file_.has_attribute("/checkpoint", "current_slot")) {
+    const std::string base = "/checkpoint/slot" + std::to_string(file_.read_attribute_int64(
+                                                      "/checkpoint", "current_slot"));
+    CheckpointInfo i;
+    i.step = file_.read_attribute_int64(base, "step");
+    i.time = file_.read_attribute_double(base, "time");
+    i.num_points = file_.dims(base + "/displacement").at(0);
+    if (file_.exists(base + "/topology/links")) {
+      auto d = file_.dims(base + "/topology/links");
+      i.link_rows = d.at(0);
+      i.link_cols = d.size() > 1 ? d[1] : 0;
+    }
+    info = i;
+  }
+  if (opened_here) close_file();
+  return info;
+}
+
+CheckpointInfo ResultWriter::read_checkpoint(std::int64_t point_offset, std::int64_t local_points,
+                                             double* u, double* v, double* a,
+                                             std::int64_t link_offset, std::int64_t local_link_rows,
+                                             std::int32_t* link_data) {
+  const bool opened_here = !file_.is_open();
+  std::optional<CheckpointInfo> info = checkpoint_info();
+  if (!info) throw std::runtime_error("output: '" + path_ + "' holds no checkpoint");
+  open_file();
+  const std::string base = "/checkpoint/slot" + std::to_string(file_.read_attribute_int64(
+                                                    "/checkpoint", "current_slot"));
+  file_.read_rows(base + "/displacement", info->num_points, 3, point_offset, local_points, u);
+  file_.read_rows(base + "/velocity", info->num_points, 3, point_offset, local_points, v);
+  file_.read_rows(base + "/acceleration", info->num_points, 3, point_offset, local_points, a);
+  // The decision must be the same on every rank (the read is collective).
+  if (any_rank(comm_, link_data != nullptr || local_link_rows > 0)) {
+    if (info->link_rows == 0)
+      throw std::runtime_error("output: checkpoint in '" + path_ + "' holds no topology/links");
+    file_.read_rows(base + "/topology/links", info->link_rows, info->link_cols, link_offset,
+                    local_link_rows, link_data);
+  }
+  if (opened_here) close_file();
+  return *info;
+}
+
+void ResultWriter::truncate_steps_after(std::int64_t step) {
+  if (step_open_) throw std::logic_error("output: truncate_steps_after inside an open step");
+  open_file();
+  std::int64_t last = -1;
+  if (file_.is_group("/steps")) {
+    for (const std::string& name : file_.list("/steps")) {
+      if (!all_digits(name)) continue;
+      const std::int64_t number = std::stoll(name);
+      const std::string group = "/steps/" + name;
+      if (number > step) {
+        file_.delete_link(group);
+      } else if (file_.has_attribute(group, "complete") &&
+                 file_.read_attribute_int64(group, "complete") == 1) {
+        last = std::max(last, number);
+      }
+    }
+  }
+  file_.write_attribute("/steps", "last_complete_step", last);
+  last_complete_step_ = last;
+  if (file_.exists("/solver_history/step")) {
+    const std::int64_t rows = file_.dims("/solver_history/step").at(0);
+    std::vector<std::int64_t> steps(static_cast<std::size_t>(rows));
+    file_.read_rows("/solver_history/step", rows, 0, 0, rows, steps.data());
+    std::int64_t keep = 0;
+    while (keep < rows && steps[static_cast<std::size_t>(keep)] <= step) ++keep;
+    if (keep < rows) {
+      for (const char* column : kHistoryColumns) {
+        const std::string path = std::string("/solver_history/") + column;
+        if (file_.exists(path)) file_.resize_1d(path, keep);
+      }
+    }
+  }
+  close_file();
+  rewrite_xdmf();
+}
+
+void ResultWriter::rewrite_xdmf() {
+  if (step_open_) throw std::logic_error("output: rewrite_xdmf inside an open step");
+  MPI_Barrier(comm_);
+  on_rank0(comm_, [&] { write_xdmf(path_, xdmf_path()); });
+}
+
+}  // namespace hexcut::output

@@ -1,0 +1,163 @@
+// hexcut's result file: one HDF5 file per run, written in parallel, plus an XDMF index
+// that ParaView opens as a time series. The layout is specified in doc/output-format.md.
+//
+// All members are COLLECTIVE over the writer's communicator unless stated otherwise: every
+// rank calls them in the same order with the same step/time/names/shapes; only the row
+// slabs (row_offset, local_rows, data) differ. Data arrives in canonical (rank-independent)
+// row order, as contiguous row slabs. An exception thrown on some ranks only (an I/O
+// error) leaves the others inside a collective call: callers should treat it as fatal
+// (MPI_Abort). The writer does not depend on PETSc.
+#pragma once
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "common/lattice_spec.hpp"
+#include "output/h5_file.hpp"
+
+namespace hexcut::output {
+
+/// This rank's contiguous slab of a global row table.
+struct Slab {
+  std::int64_t global_rows = 0;
+  std::int64_t row_offset = 0;
+  std::int64_t local_rows = 0;
+};
+
+/// The mesh, as this rank's slabs of the canonical point and cell tables.
+struct MeshData {
+  LatticeSpec lattice;
+  Slab points;                                  // rows of /mesh/points
+  const double* positions = nullptr;            // points.local_rows x 3, reference [m]
+  Slab cells;                                   // rows of every /mesh/cell_* table
+  const std::int64_t* connectivity = nullptr;   // cells.local_rows x 8, VTK_HEXAHEDRON order
+  const std::int32_t* lattice_index = nullptr;  // cells.local_rows x 3 (i, j, k)
+  const std::int32_t* material = nullptr;       // cells.local_rows
+  const double* youngs_modulus = nullptr;       // cells.local_rows [Pa]
+};
+
+/// What produced the run; stored under /input.
+struct RunInfo {
+  std::string deck;          // the YAML deck text, verbatim
+  std::string command_line;  // argv joined with spaces
+};
+
+/// One row of /solver_history (one linear/nonlinear solve).
+struct SolveRecord {
+  std::int64_t step = 0;
+  double time = 0.0;  // [s]
+  std::int64_t iterations = 0;
+  double residual_norm = 0.0;         // true (unpreconditioned) residual 2-norm
+  double relative_residual = 0.0;     // residual_norm / ||b||
+  double setup_seconds = 0.0;         // preconditioner/operator setup wall time [s]
+  double solve_seconds = 0.0;         // Krylov solve wall time [s]
+  std::int32_t converged_reason = 0;  // PETSc KSPConvergedReason (< 0: diverged)
+};
+
+/// The current checkpoint's header.
+struct CheckpointInfo {
+  std::int64_t step = 0;
+  double time = 0.0;
+  std::int64_t num_points = 0;  // rows of the u, v, a tables
+  std::int64_t link_rows = 0;   // rows of topology/links (0: none stored)
+  std::int64_t link_cols = 0;   // columns of topology/links (0: 1-D)
+};
+
+/// "/steps/000042" for step 42.
+std::string step_group(std::int64_t step);
+/// "<path without .h5>.xmf" ("<path>.xmf" when path does not end in .h5).
+std::string xdmf_path_for(const std::string& h5_path);
+/// Writes the XDMF index of the (closed) result file `h5_path` to `xmf_path` atomically
+/// (temporary file + rename), listing the complete steps only. NOT collective: call it on
+/// one process while no one has the file open for writing.
+void write_xdmf(const std::string& h5_path, const std::string& xmf_path);
+
+class ResultWriter {
+ public:
+  /// Creates the result file: writes /mesh, /input and an empty /steps into
+  /// "<path>.tmp", closes it, and renames it to `path` (replacing an older file), then
+  /// writes an XDMF index with no steps. `path` never names a half-written file.
+  static ResultWriter create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
+                             const RunInfo& run);
+  /// Re-opens an existing result file (restart). Reads the mesh sizes from it.
+  static ResultWriter open(const std::string& path, MPI_Comm comm);
+
+  ResultWriter(ResultWriter&&) noexcept = default;
+  ResultWriter& operator=(ResultWriter&&) noexcept = default;
+  ~ResultWriter();  // closes an open step without marking it complete; does not throw
+
+  const std::string& path() const { return path_; }
+  std::string xdmf_path() const { return xdmf_path_for(path_); }
+  std::int64_t num_points() const { return num_points_; }
+  std::int64_t num_cells() const { return num_cells_; }
+  /// Largest step number marked complete (-1: none). Cached; no I/O.
+  std::int64_t last_complete_step() const { return last_complete_step_; }
+
+  /// Opens the file and starts output step `step` at `time` [s]: creates /steps/NNNNNN
+  /// (replacing an existing group of that number) with complete = 0.
+  void begin_step(std::int64_t step, double time);
+  /// Writes a point field (global rows = num_points()) of the open step. cols == 1 stores
+  /// a 1-D dataset. `step` must be the open step. `unit` is stored as an attribute.
+  void write_point_field(std::int64_t step, const std::string& name, int cols,
+                         std::int64_t row_offset, std::int64_t local_rows, const double* data,
+                         const std::string& unit = "");
+  /// As write_point_field, for a cell field (global rows = num_cells()).
+  void write_cell_field(std::int64_t step, const std::string& name, int cols,
+                        std::int64_t row_offset, std::int64_t local_rows, const double* data,
+                        const std::string& unit = "");
+  /// Marks the open step complete, updates /steps@last_complete_step, flushes and closes
+  /// the file, then rank 0 rewrites the XDMF index.
+  void end_step();
+  bool step_open() const { return step_open_; }
+
+  /// Appends one row to /solver_history. All ranks pass identical values. Works inside
+  /// or outside an open step (outside: opens and closes the file).
+  void append_solve(const SolveRecord& record);
+
+  /// Writes a checkpoint: u, v, a (num_points() x 3 each; this rank's rows
+  /// [point_offset, point_offset + local_points)) and an opaque int32 table
+  /// topology/links (links.global_rows x link_cols, link_cols == 0: 1-D; skipped when
+  /// links.global_rows == 0). Written into the inactive one of two slots, which becomes
+  /// current only after its data is flushed, so the previous checkpoint survives a kill.
+  void write_checkpoint(std::int64_t step, double time, std::int64_t point_offset,
+                        std::int64_t local_points, const double* u, const double* v,
+                        const double* a, const Slab& links = {}, int link_cols = 0,
+                        const std::int32_t* link_data = nullptr);
+  /// Header of the current checkpoint, or nullopt when there is none.
+  std::optional<CheckpointInfo> checkpoint_info();
+  /// Reads this rank's slabs of the current checkpoint (throws when there is none).
+  /// The links are read when any rank passes link_data or local_link_rows > 0.
+  CheckpointInfo read_checkpoint(std::int64_t point_offset, std::int64_t local_points, double* u,
+                                 double* v, double* a, std::int64_t link_offset = 0,
+                                 std::int64_t local_link_rows = 0,
+                                 std::int32_t* link_data = nullptr);
+
+  /// Restart: deletes every /steps group numbered > step and the /solver_history rows
+  /// with step > step, updates last_complete_step and rewrites the XDMF index.
+  void truncate_steps_after(std::int64_t step);
+  /// Rewrites the XDMF index (rank 0 writes; collective so all ranks see errors).
+  void rewrite_xdmf();
+
+ private:
+  ResultWriter(std::string path, MPI_Comm comm) : path_(std::move(path)), comm_(comm) {}
+  void open_file();
+  void close_file();
+  void write_field(std::int64_t step, const std::string& name, const char* centering,
+                   std::int64_t global_rows, int cols, std::int64_t row_offset,
+                   std::int64_t local_rows, const double* data, const std::string& unit);
+  void append_solve_open(const SolveRecord& record);
+
+  std::string path_;
+  MPI_Comm comm_ = MPI_COMM_NULL;
+  H5File file_;
+  std::int64_t num_points_ = 0;
+  std::int64_t num_cells_ = 0;
+  std::int64_t last_complete_step_ = -1;
+  bool step_open_ = false;
+  std::int64_t open_step_ = -1;
+};
+
+}  // namespace hexcut::output

@@ -1,0 +1,134 @@
+#include "solve/linear_solver.hpp"
+
+#include <petsctime.h>
+
+#include "common/errors.hpp"
+#include "common/petsc_check.hpp"
+
+namespace hexcut::solve {
+namespace {
+
+PetscErrorCode set_if_unset(const char* name, const char* value) {
+  PetscFunctionBeginUser;
+  PetscBool set = PETSC_FALSE;
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
+  if (!set) PetscCall(PetscOptionsSetValue(nullptr, name, value));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+PetscErrorCode set_default_options(const deck::Solver& s) {
+  PetscFunctionBeginUser;
+  // Deck passthrough first: the command line was parsed by PetscInitialize and wins.
+  for (const auto& [name, value] : s.petsc_options)
+    PetscCall(set_if_unset(name.c_str(), value.empty() ? nullptr : value.c_str()));
+  switch (s.type) {
+    case deck::Solver::Type::cg_jacobi:
+      PetscCall(set_if_unset("-ksp_type", "cg"));
+      PetscCall(set_if_unset("-pc_type", "jacobi"));
+      break;
+    case deck::Solver::Type::hypre:
+      // BoomerAMG for 3D elasticity (doc/user-guide.md, "hypre settings"):
+      //  - nodal coarsening (1: the x,y,z unknowns of a vertex are coarsened together,
+      //    strength from the Frobenius norm of its 3x3 blocks);
+      //  - interpolation variant 2 (GM-2) with the rigid-body modes as interpolation
+      //    vectors (taken from MatSetNearNullSpace), limited to 4 per row (qmax), so
+      //    rotations are interpolated exactly: this halves the iteration count;
+      //  - strong threshold 0.5, the usual value in 3D (0.25 is for 2D);
+      //  - HMIS + extended+i interpolation, 4 entries per row, aggressive coarsening on
+      //    the first level: keeps the operator complexity, hence setup time and memory,
+      //    low. Without it the vector interpolation costs more time than it saves.
+      // Measured on the cantilever example (20k DOFs): nodal_coarsen 6 took 146
+      // iterations; this set 58 and is the fastest of the combinations tried
+      // (doc/benchmarks.md).
+      PetscCall(set_if_unset("-ksp_type", "cg"));
+      PetscCall(set_if_unset("-pc_type", "hypre"));
+      PetscCall(set_if_unset("-pc_hypre_type", "boomeramg"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_nodal_coarsen", "1"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_vec_interp_variant", "2"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_vec_interp_qmax", "4"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_strong_threshold", "0.5"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_coarsen_type", "HMIS"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_interp_type", "ext+i"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_P_max", "4"));
+      PetscCall(set_if_unset("-pc_hypre_boomeramg_agg_nl", "1"));
+      break;
+    case deck::Solver::Type::gamg:
+      // Smoothed aggregation with the 6 rigid-body modes (MatNullSpaceCreateRigidBody).
+      PetscCall(set_if_unset("-ksp_type", "cg"));
+      PetscCall(set_if_unset("-pc_type", "gamg"));
+      PetscCall(set_if_unset("-pc_gamg_type", "agg"));
+      PetscCall(set_if_unset("-pc_gamg_threshold", "0.01"));
+      PetscCall(set_if_unset("-mg_levels_ksp_type", "chebyshev"));
+      PetscCall(set_if_unset("-mg_levels_pc_type", "jacobi"));
+      break;
+    case deck::Solver::Type::direct:
+      // Cholesky through MUMPS (parallel); the matrix is SPD after symmetric elimination.
+      PetscCall(set_if_unset("-ksp_type", "preonly"));
+      PetscCall(set_if_unset("-pc_type", "cholesky"));
+      PetscCall(set_if_unset("-pc_factor_mat_solver_type", "mumps"));
+      break;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* ksp) {
+  PetscFunctionBeginUser;
+  PetscCall(KSPCreate(comm, ksp));
+  PetscCall(KSPSetDM(*ksp, dm));
+  PetscCall(KSPSetDMActive(*ksp, PETSC_FALSE));  // operators come from hexcut, not the DM
+  PetscCall(KSPSetTolerances(*ksp, s.rtol, PETSC_DEFAULT, PETSC_DEFAULT, s.max_iterations));
+  PetscCall(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
+  PetscCall(KSPSetInitialGuessNonzero(*ksp, PETSC_TRUE));
+  PetscCall(KSPSetFromOptions(*ksp));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode set_operator(KSP ksp, const deck::Solver& s, Mat A, Vec coordinates) {
+  PetscFunctionBeginUser;
+  if (coordinates && (s.type == deck::Solver::Type::hypre || s.type == deck::Solver::Type::gamg)) {
+    MatNullSpace rigid;
+    PetscCall(MatNullSpaceCreateRigidBody(coordinates, &rigid));
+    PetscCall(MatSetNearNullSpace(A, rigid));
+    PetscCall(MatNullSpaceDestroy(&rigid));
+  }
+  PetscCall(KSPSetOperators(ksp, A, A));
+  PetscFunctionReturn(0);
+}
+
+SolveRecord solve(KSP ksp, Vec b, Vec x) {
+  SolveRecord r;
+  PetscLogDouble t0, t1, t2;
+  check_petsc(PetscTime(&t0), "PetscTime");
+  check_petsc(KSPSetUp(ksp), "KSPSetUp");
+  check_petsc(PetscTime(&t1), "PetscTime");
+  check_petsc(KSPSolve(ksp, b, x), "KSPSolve");
+  check_petsc(PetscTime(&t2), "PetscTime");
+  r.setup_seconds = t1 - t0;
+  r.solve_seconds = t2 - t1;
+  check_petsc(KSPGetIterationNumber(ksp, &r.iterations), "KSPGetIterationNumber");
+  check_petsc(KSPGetConvergedReason(ksp, &r.reason), "KSPGetConvergedReason");
+  // True residual, independent of the norm the KSP monitored.
+  Mat A;
+  Vec res;
+  check_petsc(KSPGetOperators(ksp, &A, nullptr), "KSPGetOperators");
+  check_petsc(VecDuplicate(b, &res), "VecDuplicate");
+  check_petsc(MatMult(A, x, res), "MatMult");
+  check_petsc(VecAYPX(res, -1.0, b), "VecAYPX");
+  PetscReal nr = 0, nb = 0;
+  check_petsc(VecNorm(res, NORM_2, &nr), "VecNorm");
+  check_petsc(VecNorm(b, NORM_2, &nb), "VecNorm");
+  check_petsc(VecDestroy(&res), "VecDestroy");
+  r.residual_norm = nr;
+  r.residual = nb > 0 ? nr / nb : nr;
+  if (r.reason < 0)
+    throw SolverError("linear solve failed: " + reason_string(r.reason) + " after " +
+                      std::to_string(r.iterations) + " iterations (relative residual " +
+                      std::to_string(r.residual) + ")");
+  return r;
+}
+
+std::string reason_string(KSPConvergedReason reason) { return KSPConvergedReasons[reason]; }
+
+}  // namespace hexcut::solve

@@ -1,0 +1,42 @@
+// The comparison solvers (issue 2 §7): CG + Jacobi, CG + hypre BoomerAMG, CG + PETSc
+// GAMG, and a sparse direct Cholesky (MUMPS). Each is a KSP configured with defaults
+// that suit elasticity; every default is set in the PETSc options database only when
+// the user did not set it, so command-line and deck `petsc_options` always win.
+#pragma once
+
+#include <petscksp.h>
+
+#include <string>
+
+#include "deck/deck.hpp"
+
+namespace hexcut::solve {
+
+/// What one linear solve did.
+struct SolveRecord {
+  PetscInt iterations = 0;
+  double residual = 0.0;       // true relative residual ||b - A x|| / ||b||
+  double residual_norm = 0.0;  // true residual ||b - A x||
+  double setup_seconds = 0.0;  // KSPSetUp (preconditioner build, factorization)
+  double solve_seconds = 0.0;  // KSPSolve after setup
+  KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
+};
+
+/// Puts the solver's defaults into the options database (unless already set): called
+/// once before any KSP is created.
+PetscErrorCode set_default_options(const deck::Solver& solver);
+
+/// Creates a KSP for the chosen solver over the DM's layout. `coordinates` (owned
+/// reference positions, bs 3) give the rigid-body modes for hypre and GAMG.
+PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& solver, KSP* ksp);
+
+/// Sets the operator (re-used pattern) and the near-null space from coordinates.
+PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coordinates);
+
+/// Solves A x = b (x holds the initial guess; nonzero guesses are used) and records
+/// what happened. Throws SolverError if the solve diverged or did not converge.
+SolveRecord solve(KSP ksp, Vec b, Vec x);
+
+std::string reason_string(KSPConvergedReason reason);
+
+}  // namespace hexcut::solve

@@ -1,0 +1,36 @@
+// Small helpers shared by the element tests.
+#pragma once
+
+#include <Eigen/Dense>
+#include <random>
+
+namespace hexcut::element::test {
+
+using Mat24 = Eigen::Matrix<double, 24, 24, Eigen::RowMajor>;
+using Vec24 = Eigen::Matrix<double, 24, 1>;
+using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+inline Eigen::Map<const Mat24> as_mat24(const double* p) {
+  return Eigen::Map<const Mat24>(p);
+}
+
+/// Uniformly distributed random rotation (normalized Gaussian quaternion).
+inline Mat3 random_rotation(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  q.normalize();
+  return q.toRotationMatrix();
+}
+
+inline Mat3 rotation_z(double angle) {
+  return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+/// Corner values of the affine map x -> G x + c at the corners of a cell.
+inline Vec24 affine_field(const Mat3& G, const Eigen::Vector3d& c, const Vec24& x) {
+  Vec24 u;
+  for (int q = 0; q < 8; ++q) u.segment<3>(3 * q) = G * x.segment<3>(3 * q) + c;
+  return u;
+}
+
+}  // namespace hexcut::element::test

@@ -1,0 +1,315 @@
+// Serial (1 rank) tests of the HDF5 layer and the ResultWriter.
+#include <gtest/gtest.h>
+#include <mpi.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "output/h5_file.hpp"
+#include "output/result_writer.hpp"
+
+namespace fs = std::filesystem;
+using namespace hexcut::output;
+
+namespace {
+
+fs::path scratch_dir(const std::string& name) {
+  fs::path dir =
+      fs::temp_directory_path() / ("hexcut_output_serial_" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// Removes this process's scratch directory after the last test.
+class RemoveScratch : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    fs::remove_all(fs::temp_directory_path() /
+                   ("hexcut_output_serial_" + std::to_string(::getpid())));
+  }
+};
+[[maybe_unused]] ::testing::Environment* const kRemoveScratch =
+    ::testing::AddGlobalTestEnvironment(new RemoveScratch);
+
+template <class T>
+std::vector<T> table(std::int64_t rows, std::int64_t cols, std::int64_t first_row = 0) {
+  std::vector<T> t;
+  const std::int64_t c = cols == 0 ? 1 : cols;
+  for (std::int64_t r = first_row; r < first_row + rows; ++r)
+    for (std::int64_t j = 0; j < c; ++j) t.push_back(static_cast<T>((r * 7 + j) % 100));
+  return t;
+}
+
+template <class T>
+void round_trip(H5File& f, const std::string& path, std::int64_t rows, std::int64_t cols) {
+  auto data = table<T>(rows, cols);
+  f.write_rows(path, rows, cols, 0, rows, data.data());
+  std::vector<T> back(data.size());
+  f.read_rows(path, rows, cols, 0, rows, back.data());
+  EXPECT_EQ(back, data) << path;
+  std::vector<std::int64_t> want =
+      cols == 0 ? std::vector<std::int64_t>{rows} : std::vector<std::int64_t>{rows, cols};
+  EXPECT_EQ(f.dims(path), want) << path;
+}
+
+/// A tiny mesh: n_points points, n_cells cells, all rows on this rank.
+struct TinyMesh {
+  std::vector<double> points, youngs;
+  std::vector<std::int64_t> cells;
+  std::vector<std::int32_t> ijk, material;
+  MeshData data;
+  TinyMesh(std::int64_t n_points, std::int64_t n_cells) {
+    points = table<double>(n_points, 3);
+    cells = table<std::int64_t>(n_cells, 8);
+    ijk = table<std::int32_t>(n_cells, 3);
+    material = table<std::int32_t>(n_cells, 0);
+    youngs = table<double>(n_cells, 0);
+    data.lattice.dims = {2, 1, 1};
+    data.points = {n_points, 0, n_points};
+    data.cells = {n_cells, 0, n_cells};
+    data.positions = points.data();
+    data.connectivity = cells.data();
+    data.lattice_index = ijk.data();
+    data.material = material.data();
+    data.youngs_modulus = youngs.data();
+  }
+};
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+}  // namespace
+
+TEST(OutputH5File, RowTablesOfEveryTypeRoundTrip) {
+  fs::path file = scratch_dir("types") / "t.h5";
+  H5File f = H5File::create(file.string(), MPI_COMM_SELF);
+  round_trip<double>(f, "/a/b/double", 5, 3);
+  round_trip<float>(f, "/float", 4, 2);
+  round_trip<std::int32_t>(f, "/int32", 6, 0);
+  round_trip<std::int64_t>(f, "/g/int64", 3, 8);
+  round_trip<std::uint8_t>(f, "/uint8", 9, 1);
+  EXPECT_EQ(f.element_type("/float"), (std::pair<std::string, int>("float", 4)));
+  EXPECT_EQ(f.element_type("/uint8"), (std::pair<std::string, int>("uint", 1)));
+  EXPECT_EQ(f.element_type("/g/int64"), (std::pair<std::string, int>("int", 8)));
+  EXPECT_EQ(f.dims("/uint8"), (std::vector<std::int64_t>{9, 1}));
+  EXPECT_TRUE(f.is_group("/a/b"));
+  f.close();
+  // Re-open read-only and read a middle slab.
+  H5File r = H5File::open(file.string(), MPI_COMM_SELF, H5File::Access::kReadOnly);
+  std::vector<double> slab(2 * 3);
+  r.read_rows("/a/b/double", 5, 3, 2, 2, slab.data());
+  EXPECT_EQ(slab, table<double>(2, 3, 2));
+}
+
+TEST(OutputH5File, OverwriteInPlaceOrRecreate) {
+  fs::path file = scratch_dir("overwrite") / "t.h5";
+  H5File f = H5File::create(file.string(), MPI_COMM_SELF);
+  std::vector<double> a(6, 1.0), b(6, 2.0), c(8, 3.0);
+  f.write_rows("/x", 2, 3, 0, 2, a.data());
+  f.write_rows("/x", 2, 3, 0, 2, b.data());  // same shape: in place
+  std::vector<double> back(6);
+  f.read_rows("/x", 2, 3, 0, 2, back.data());
+  EXPECT_EQ(back, b);
+  f.write_rows("/x", 4, 2, 0, 4, c.data());  // other shape: re-created
+  EXPECT_EQ(f.dims("/x"), (std::vector<std::int64_t>{4, 2}));
+  std::vector<std::int32_t> ints(4, 7);
+  f.write_rows("/x", 4, 0, 0, 4, ints.data());  // other type: re-created
+  EXPECT_EQ(f.element_type("/x").first, "int");
+}
+
+TEST(OutputH5File, AttributesStringsLinksAndAppend) {
+  fs::path file = scratch_dir("attrs") / "t.h5";
+  H5File f = H5File::create(file.string(), MPI_COMM_SELF);
+  f.create_group("/g/h");
+  f.write_attribute("/g", "d", 2.5);
+  f.write_attribute("/g", "i", std::int64_t{-7});
+  f.write_attribute("/g", "n", 3);
+  f.write_attribute("/g", "s", "h\xC3\xA9llo");
+  f.write_attribute("/g", "empty", "");
+  f.write_attribute("/g", "v", std::vector<double>{1, 2, 3});
+  f.write_attribute("/g", "iv", std::vector<std::int64_t>{4, 5});
+  f.write_attribute("/g", "d", 3.5);  // replace
+  EXPECT_EQ(f.read_attribute_double("/g", "d"), 3.5);
+  EXPECT_EQ(f.read_attribute_int64("/g", "i"), -7);
+  EXPECT_EQ(f.read_attribute_int64("/g", "n"), 3);
+  EXPECT_EQ(f.read_attribute_string("/g", "s"), "h\xC3\xA9llo");
+  EXPECT_EQ(f.read_attribute_string("/g", "empty"), "");
+  EXPECT_EQ(f.read_attribute_doubles("/g", "v"), (std::vector<double>{1, 2, 3}));
+  EXPECT_EQ(f.read_attribute_int64s("/g", "iv"), (std::vector<std::int64_t>{4, 5}));
+  EXPECT_TRUE(f.has_attribute("/g", "s"));
+  EXPECT_FALSE(f.has_attribute("/g", "nope"));
+  EXPECT_FALSE(f.has_attribute("/nope", "s"));
+
+  const std::string deck = "a: 1\n  b: [2, 3]   \n\n# end\n";
+  f.write_string_dataset("/input/deck", deck);
+  f.write_string_dataset("/input/empty", "");
+  EXPECT_EQ(f.read_string_dataset("/input/deck"), deck);
+  EXPECT_EQ(f.read_string_dataset("/input/empty"), "");
+
+  EXPECT_TRUE(f.exists("/g/h"));
+  EXPECT_FALSE(f.exists("/g/h/x"));
+  EXPECT_FALSE(f.exists("/input/deck/x"));  // through a dataset
+  EXPECT_EQ(f.list("/g"), (std::vector<std::string>{"h"}));
+  f.delete_link("/g/h");
+  EXPECT_FALSE(f.exists("/g/h"));
+
+  std::vector<std::int64_t> v{1, 2, 3};
+  f.append_1d("/hist/x", v.data(), 3);
+  f.append_1d("/hist/x", v.data(), 2);
+  EXPECT_EQ(f.dims("/hist/x"), (std::vector<std::int64_t>{5}));
+  f.resize_1d("/hist/x", 4);
+  std::vector<std::int64_t> back(4);
+  f.read_rows("/hist/x", 4, 0, 0, 4, back.data());
+  EXPECT_EQ(back, (std::vector<std::int64_t>{1, 2, 3, 1}));
+}
+
+TEST(OutputH5File, ErrorsThrowWithPathAndOperation) {
+  fs::path file = scratch_dir("errors") / "t.h5";
+  H5File f = H5File::create(file.string(), MPI_COMM_SELF);
+  std::vector<double> d(6, 0.0);
+  f.write_rows("/x", 2, 3, 0, 2, d.data());
+  try {
+    f.read_rows("/x", 3, 3, 0, 3, d.data());
+    FAIL() << "no throw";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'/x'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("read_rows"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(f.read_rows("/missing", 2, 3, 0, 2, d.data()), std::runtime_error);
+  EXPECT_THROW(f.write_rows("/x", 2, 3, 1, 2, d.data()), std::runtime_error);  // bad slab
+  EXPECT_THROW(f.delete_link("/missing"), std::runtime_error);
+  EXPECT_THROW(f.read_attribute_double("/x", "missing"), std::runtime_error);
+  EXPECT_THROW(f.read_attribute_string("/x", "missing"), std::runtime_error);
+  f.write_attribute("/x", "num", 1.0);
+  EXPECT_THROW(f.read_attribute_string("/x", "num"), std::runtime_error);
+  EXPECT_THROW(H5File::open((file.parent_path() / "nope.h5").string(), MPI_COMM_SELF),
+               std::runtime_error);
+}
+
+TEST(OutputResultWriter, CreateIsAtomicAndStepsCloseTheFile) {
+  fs::path dir = scratch_dir("create");
+  const std::string path = (dir / "run.h5").string();
+  TinyMesh mesh(12, 2);
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, mesh.data, {"deck: 1\n", "hexcut x"});
+  EXPECT_TRUE(fs::exists(path));
+  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_TRUE(fs::exists(dir / "run.xmf"));
+  EXPECT_EQ(read_text(dir / "run.xmf").find("<Grid Name=\"step_"), std::string::npos);
+  EXPECT_EQ(w.num_points(), 12);
+  EXPECT_EQ(w.num_cells(), 2);
+  EXPECT_EQ(w.last_complete_step(), -1);
+
+  std::vector<double> u = table<double>(12, 3), s = table<double>(2, 6);
+  w.begin_step(0, 0.0);
+  EXPECT_THROW(w.begin_step(1, 0.1), std::logic_error);
+  EXPECT_THROW(w.write_point_field(1, "u", 3, 0, 12, u.data()), std::logic_error);
+  EXPECT_THROW(w.write_point_field(0, "a/b", 3, 0, 12, u.data()), std::invalid_argument);
+  w.write_point_field(0, "displacement", 3, 0, 12, u.data(), "m");
+  w.write_cell_field(0, "stress", 6, 0, 2, s.data(), "Pa");
+  w.end_step();
+  EXPECT_EQ(w.last_complete_step(), 0);
+  EXPECT_NE(read_text(dir / "run.xmf").find("run.h5:/steps/000000/stress"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "run.xmf.tmp"));
+
+  // The file is closed between steps: another (read-only) open sees the complete step.
+  H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  EXPECT_EQ(r.read_attribute_int64("/steps/000000", "complete"), 1);
+  EXPECT_EQ(r.read_attribute_int64("/steps", "last_complete_step"), 0);
+  EXPECT_EQ(r.read_string_dataset("/input/deck"), "deck: 1\n");
+  EXPECT_EQ(r.read_attribute_string("/steps/000000/stress", "centering"), "cell");
+  r.close();
+
+  // Re-creating replaces the old file.
+  ResultWriter w2 = ResultWriter::create(path, MPI_COMM_SELF, mesh.data, {"deck: 2\n", ""});
+  H5File r2 = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  EXPECT_EQ(r2.read_string_dataset("/input/deck"), "deck: 2\n");
+  EXPECT_TRUE(r2.list("/steps").empty());
+}
+
+TEST(OutputResultWriter, CheckpointRoundTripAndTruncate) {
+  fs::path dir = scratch_dir("checkpoint");
+  const std::string path = (dir / "run.h5").string();
+  TinyMesh mesh(8, 3);
+  {
+    ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, mesh.data, {"", ""});
+    EXPECT_FALSE(w.checkpoint_info().has_value());
+    for (int step = 0; step < 4; ++step) {
+      SolveRecord rec;
+      rec.step = step;
+      rec.iterations = step;
+      w.append_solve(rec);
+      w.begin_step(step, 0.5 * step);
+      std::vector<double> f(8 * 3, step);
+      w.write_point_field(step, "displacement", 3, 0, 8, f.data());
+      w.end_step();
+      std::vector<double> u(24, 1.0 * step), v(24, 2.0 * step), a(24, 3.0 * step);
+      std::vector<std::int32_t> links{step, step + 1, step + 2, step + 3, step + 4, step + 5};
+      w.write_checkpoint(step, 0.5 * step, 0, 8, u.data(), v.data(), a.data(), Slab{3, 0, 3}, 2,
+                         links.data());
+    }
+  }
+  ResultWriter w = ResultWriter::open(path, MPI_COMM_SELF);
+  EXPECT_EQ(w.last_complete_step(), 3);
+  auto info = w.checkpoint_info();
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->step, 3);
+  EXPECT_EQ(info->time, 1.5);
+  EXPECT_EQ(info->num_points, 8);
+  EXPECT_EQ(info->link_rows, 3);
+  EXPECT_EQ(info->link_cols, 2);
+  std::vector<double> u(24), v(24), a(24);
+  std::vector<std::int32_t> links(4);
+  CheckpointInfo got = w.read_checkpoint(0, 8, u.data(), v.data(), a.data(), 1, 2, links.data());
+  EXPECT_EQ(got.step, 3);
+  EXPECT_EQ(u, std::vector<double>(24, 3.0));
+  EXPECT_EQ(v, std::vector<double>(24, 6.0));
+  EXPECT_EQ(a, std::vector<double>(24, 9.0));
+  EXPECT_EQ(links, (std::vector<std::int32_t>{5, 6, 7, 8}));
+
+  w.truncate_steps_after(1);
+  EXPECT_EQ(w.last_complete_step(), 1);
+  {
+    H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+    EXPECT_EQ(r.list("/steps"), (std::vector<std::string>{"000000", "000001"}));
+    EXPECT_EQ(r.read_attribute_int64("/steps", "last_complete_step"), 1);
+    EXPECT_EQ(r.dims("/solver_history/step"), (std::vector<std::int64_t>{2}));
+    EXPECT_EQ(r.dims("/solver_history/converged_reason"), (std::vector<std::int64_t>{2}));
+  }
+  const std::string xmf = read_text(dir / "run.xmf");
+  EXPECT_NE(xmf.find("step_000001"), std::string::npos);
+  EXPECT_EQ(xmf.find("step_000002"), std::string::npos);
+
+  // Continue after the restart: step 2 again, history appended after the kept rows.
+  SolveRecord rec;
+  rec.step = 2;
+  w.append_solve(rec);
+  w.begin_step(2, 1.0);
+  std::vector<double> f(24, 42.0);
+  w.write_point_field(2, "displacement", 3, 0, 8, f.data());
+  w.end_step();
+  H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  std::vector<std::int64_t> steps(3);
+  r.read_rows("/solver_history/step", 3, 0, 0, 3, steps.data());
+  EXPECT_EQ(steps, (std::vector<std::int64_t>{0, 1, 2}));
+  EXPECT_EQ(r.read_attribute_int64("/steps", "last_complete_step"), 2);
+  // The previous checkpoint slot survives (step 3 is still the newest checkpoint).
+  EXPECT_EQ(r.read_attribute_int64("/checkpoint", "step"), 3);
+}
+
+TEST(OutputResultWriter, XdmfPathAndStepNames) {
+  EXPECT_EQ(xdmf_path_for("out/run.h5"), "out/run.xmf");
+  EXPECT_EQ(xdmf_path_for("run.hdf5"), "run.hdf5.xmf");
+  EXPECT_EQ(step_group(42), "/steps/000042");
+  EXPECT_THROW(step_group(-1), std::invalid_argument);
+}

@@ -1,0 +1,161 @@
+// Writes a small result file with known values, in parallel:
+//   output_write_result_file FILE.h5 [--steps N] [--kill-after-step K]
+// Lattice 3x2x2 cells (h = 0.5, origin (1,2,3)), 36 points, 12 cells. Step s has time
+// 0.25*s; every field value is value(kind, s, row, col) below (check_result_file.py repeats
+// the formulas). With --kill-after-step K, rank 0 SIGKILLs itself right after step K closed.
+#include <mpi.h>
+
+#include <csignal>
+#include <cstdio>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "output/result_writer.hpp"
+
+using hexcut::output::MeshData;
+using hexcut::output::ResultWriter;
+using hexcut::output::RunInfo;
+using hexcut::output::Slab;
+using hexcut::output::SolveRecord;
+
+namespace {
+
+double value(int kind, std::int64_t step, std::int64_t row, int col) {
+  return 1e6 * kind + 1000.0 * static_cast<double>(step) + 10.0 * static_cast<double>(row) + col +
+         0.25;
+}
+
+Slab slab_of(std::int64_t global_rows, int rank, int size) {
+  Slab s;
+  s.global_rows = global_rows;
+  s.row_offset = global_rows * rank / size;
+  s.local_rows = global_rows * (rank + 1) / size - s.row_offset;
+  return s;
+}
+
+std::vector<double> table(int kind, std::int64_t step, const Slab& s, int cols) {
+  std::vector<double> t;
+  for (std::int64_t r = s.row_offset; r < s.row_offset + s.local_rows; ++r)
+    for (int c = 0; c < cols; ++c) t.push_back(value(kind, step, r, c));
+  return t;
+}
+
+int run(int argc, char** argv) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: %s FILE.h5 [--steps N] [--kill-after-step K]\n", argv[0]);
+    return 2;
+  }
+  const std::string path = argv[1];
+  int steps = 2, kill_after = -1;
+  for (int i = 2; i + 1 < argc; i += 2) {
+    std::string flag = argv[i];
+    if (flag == "--steps") steps = std::stoi(argv[i + 1]);
+    if (flag == "--kill-after-step") kill_after = std::stoi(argv[i + 1]);
+  }
+
+  MeshData mesh;
+  mesh.lattice.origin = {1.0, 2.0, 3.0};
+  mesh.lattice.h = 0.5;
+  mesh.lattice.dims = {3, 2, 2};
+  const int nx = 3, ny = 2, nz = 2;
+  const auto vid = [&](int i, int j, int k) {
+    return std::int64_t(i) + (nx + 1) * (std::int64_t(j) + (ny + 1) * std::int64_t(k));
+  };
+  mesh.points = slab_of((nx + 1) * (ny + 1) * (nz + 1), rank, size);
+  mesh.cells = slab_of(nx * ny * nz, rank, size);
+  std::vector<double> positions;
+  for (std::int64_t p = mesh.points.row_offset; p < mesh.points.row_offset + mesh.points.local_rows;
+       ++p) {
+    const int i = int(p % (nx + 1)), j = int(p / (nx + 1) % (ny + 1)),
+              k = int(p / ((nx + 1) * (ny + 1)));
+    auto x = mesh.lattice.vertex_position(i, j, k);
+    positions.insert(positions.end(), {x.x(), x.y(), x.z()});
+  }
+  std::vector<std::int64_t> cells;
+  std::vector<std::int32_t> ijk, material;
+  std::vector<double> youngs;
+  for (std::int64_t c = mesh.cells.row_offset; c < mesh.cells.row_offset + mesh.cells.local_rows;
+       ++c) {
+    const int i = int(c % nx), j = int(c / nx % ny), k = int(c / (nx * ny));
+    cells.insert(cells.end(), {vid(i, j, k), vid(i + 1, j, k), vid(i + 1, j + 1, k),
+                               vid(i, j + 1, k), vid(i, j, k + 1), vid(i + 1, j, k + 1),
+                               vid(i + 1, j + 1, k + 1), vid(i, j + 1, k + 1)});
+    ijk.insert(ijk.end(), {i, j, k});
+    material.push_back(static_cast<std::int32_t>(c % 2));
+    youngs.push_back(c % 2 == 0 ? 210e9 : 70e9);
+  }
+  mesh.positions = positions.data();
+  mesh.connectivity = cells.data();
+  mesh.lattice_index = ijk.data();
+  mesh.material = material.data();
+  mesh.youngs_modulus = youngs.data();
+
+  RunInfo info;
+  info.deck = "# test deck\nsolver:\n  type: cg   # trailing spaces kept  \nunit: \"\xC2\xB5m\"\n";
+  for (int i = 0; i < argc; ++i) info.command_line += (i ? " " : "") + std::string(argv[i]);
+
+  ResultWriter writer = ResultWriter::create(path, MPI_COMM_WORLD, mesh, info);
+  const Slab& P = mesh.points;
+  const Slab& C = mesh.cells;
+  for (int s = 0; s < steps; ++s) {
+    const double time = 0.25 * s;
+    SolveRecord rec;
+    rec.step = s;
+    rec.time = time;
+    rec.iterations = 10 + s;
+    rec.residual_norm = 1e-9 * (s + 1);
+    rec.relative_residual = 1e-12 * (s + 1);
+    rec.setup_seconds = 0.5;
+    rec.solve_seconds = 1.5;
+    rec.converged_reason = 2;
+    writer.append_solve(rec);
+
+    writer.begin_step(s, time);
+    auto u = table(1, s, P, 3), v = table(2, s, P, 3), a = table(3, s, P, 3);
+    writer.write_point_field(s, "displacement", 3, P.row_offset, P.local_rows, u.data(), "m");
+    writer.write_point_field(s, "velocity", 3, P.row_offset, P.local_rows, v.data(), "m/s");
+    writer.write_point_field(s, "acceleration", 3, P.row_offset, P.local_rows, a.data(), "m/s^2");
+    auto stress = table(4, s, C, 6), vm = table(5, s, C, 1), pr = table(6, s, C, 1),
+         ps = table(7, s, C, 3), pd = table(8, s, C, 9);
+    writer.write_cell_field(s, "stress", 6, C.row_offset, C.local_rows, stress.data(), "Pa");
+    writer.write_cell_field(s, "von_mises", 1, C.row_offset, C.local_rows, vm.data(), "Pa");
+    writer.write_cell_field(s, "pressure", 1, C.row_offset, C.local_rows, pr.data(), "Pa");
+    writer.write_cell_field(s, "principal_stress", 3, C.row_offset, C.local_rows, ps.data(), "Pa");
+    writer.write_cell_field(s, "principal_directions", 9, C.row_offset, C.local_rows, pd.data());
+    // The checkpoint of step s (inside the open step: written into the same open file).
+    std::vector<std::int32_t> links;
+    for (std::int64_t r = C.row_offset; r < C.row_offset + C.local_rows; ++r)
+      links.push_back(static_cast<std::int32_t>(100 * s + r));
+    writer.write_checkpoint(s, time, P.row_offset, P.local_rows, u.data(), v.data(), a.data(), C, 0,
+                            links.data());
+    writer.end_step();
+    if (s == kill_after) {
+      MPI_Barrier(MPI_COMM_WORLD);
+      if (rank == 0) {
+        std::printf("killing myself after step %d\n", s);
+        std::fflush(stdout);
+        std::raise(SIGKILL);
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int status = 1;
+  try {
+    status = run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "output_write_result_file: %s\n", e.what());
+    MPI_Abort(MPI_COMM_WORLD, 1);
+  }
+  MPI_Finalize();
+  return status;
+}
