@@ -80,8 +80,12 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* k
   PetscCall(KSPSetDMActive(*ksp, PETSC_FALSE));  // operators come from hexcut, not the DM
   PetscCall(KSPSetTolerances(*ksp, s.rtol, PETSC_DEFAULT, PETSC_DEFAULT, s.max_iterations));
   PetscCall(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
-  PetscCall(KSPSetInitialGuessNonzero(*ksp, PETSC_TRUE));
   PetscCall(KSPSetFromOptions(*ksp));
+  // Iterative solvers start from the last solution (time steps, load steps, fixed-point
+  // iterations); a direct solve (preonly) rejects an initial guess.
+  PetscBool preonly = PETSC_FALSE;
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ksp, KSPPREONLY, &preonly));
+  PetscCall(KSPSetInitialGuessNonzero(*ksp, preonly ? PETSC_FALSE : PETSC_TRUE));
   PetscFunctionReturn(0);
 }
 

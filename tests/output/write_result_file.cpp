@@ -1,8 +1,9 @@
 // Writes a small result file with known values, in parallel:
-//   output_write_result_file FILE.h5 [--steps N] [--kill-after-step K]
+//   output_write_result_file FILE.h5 [--steps N] [--kill-after-step K] [--kill-during-step K]
 // Lattice 3x2x2 cells (h = 0.5, origin (1,2,3)), 36 points, 12 cells. Step s has time
 // 0.25*s; every field value is value(kind, s, row, col) below (check_result_file.py repeats
-// the formulas). With --kill-after-step K, rank 0 SIGKILLs itself right after step K closed.
+// the formulas). With --kill-after-step K, rank 0 SIGKILLs itself right after step K closed;
+// with --kill-during-step K, after the first field of step K (used to probe the window).
 #include <mpi.h>
 
 #include <csignal>
@@ -50,11 +51,12 @@ int run(int argc, char** argv) {
     return 2;
   }
   const std::string path = argv[1];
-  int steps = 2, kill_after = -1;
+  int steps = 2, kill_after = -1, kill_during = -1;
   for (int i = 2; i + 1 < argc; i += 2) {
     std::string flag = argv[i];
     if (flag == "--steps") steps = std::stoi(argv[i + 1]);
     if (flag == "--kill-after-step") kill_after = std::stoi(argv[i + 1]);
+    if (flag == "--kill-during-step") kill_during = std::stoi(argv[i + 1]);
   }
 
   MeshData mesh;
@@ -117,6 +119,10 @@ int run(int argc, char** argv) {
     writer.begin_step(s, time);
     auto u = table(1, s, P, 3), v = table(2, s, P, 3), a = table(3, s, P, 3);
     writer.write_point_field(s, "displacement", 3, P.row_offset, P.local_rows, u.data(), "m");
+    if (s == kill_during) {  // inside an open step, after its first field
+      MPI_Barrier(MPI_COMM_WORLD);
+      if (rank == 0) std::raise(SIGKILL);
+    }
     writer.write_point_field(s, "velocity", 3, P.row_offset, P.local_rows, v.data(), "m/s");
     writer.write_point_field(s, "acceleration", 3, P.row_offset, P.local_rows, a.data(), "m/s^2");
     auto stress = table(4, s, C, 6), vm = table(5, s, C, 1), pr = table(6, s, C, 1),

@@ -1,0 +1,72 @@
+// Results must not depend on the number of ranks: the same problem solved on all ranks
+// of MPI_COMM_WORLD (2 under ctest) and on rank 0 alone gives the same displacement in
+// canonical order, for every solver, and for a corotational dynamic run.
+#include <cmath>
+
+#include "fixture.hpp"
+
+namespace hexcut::testing {
+namespace {
+
+std::vector<double> solve_on(MPI_Comm comm, const std::string& yaml) {
+  Job job(comm, yaml, 4);
+  if (job.deck.analysis.type == deck::Analysis::Type::dynamic) {
+    job.sim->initial_acceleration(job.state);
+    job.sim->run_dynamic(job.state, {});
+  } else {
+    job.sim->run_static(job.state, {});
+  }
+  return job.canonical(job.state.u);
+}
+
+double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double num = 0, den = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    num = std::max(num, std::abs(a[i] - b[i]));
+    den = std::max(den, std::abs(a[i]));
+  }
+  return num / den;
+}
+
+void compare(const std::string& yaml, double tol) {
+  int size, rank;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  ASSERT_GE(size, 2) << "run this test with mpiexec -n 2";
+  const auto parallel = solve_on(PETSC_COMM_WORLD, yaml);
+  MPI_Comm self;
+  MPI_Comm_split(PETSC_COMM_WORLD, rank == 0 ? 0 : MPI_UNDEFINED, 0, &self);
+  if (rank == 0) {
+    const auto serial = solve_on(self, yaml);
+    ASSERT_EQ(serial.size(), parallel.size());
+    const double diff = relative_difference(serial, parallel);
+    std::printf("  max relative difference 1 vs %d ranks: %.2e\n", size, diff);
+    EXPECT_LT(diff, tol);
+    MPI_Comm_free(&self);
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+}
+
+class EverySolver : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(EverySolver, TwoRanksEqualOneRank) {
+  const std::string solver = std::string("{type: ") + GetParam() + ", rtol: 1.0e-11, max_iterations: 20000}";
+  compare(cantilever_deck(0.025, "{type: static}", solver), 1e-8);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver, ::testing::Values("cg-jacobi", "hypre", "gamg", "direct"));
+
+TEST(Mpi, CorotationalDynamicTwoRanksEqualOneRank) {
+  const std::string yaml =
+      "lattice: {h: 0.025, dims: [40, 4, 4]}\n"
+      "materials: {rubber: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1.0, 0.1, 0.1]}}}]\n"
+      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
+      "  gravity: [0, 0, -9.81]\n"
+      "analysis: {type: dynamic, formulation: corotational, dt: 0.01, steps: 20}\n"
+      "solver: {type: gamg, rtol: 1.0e-12}\n";
+  compare(yaml, 1e-8);
+}
+
+}  // namespace
+}  // namespace hexcut::testing
