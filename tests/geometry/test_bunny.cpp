@@ -55,7 +55,7 @@ TEST(GeometryBunny, VoxelVolumeMatchesEnclosedVolume) {
 
 TEST(GeometryBunny, FastClassifyEqualsBruteForce) {
   const auto solid = hg::make_mesh_solid(bunny());
-  const auto spec = lattice_around(solid->bounds(), 0.37);
+  const auto spec = lattice_around(solid->bounds(), 0.45);
   std::vector<std::uint8_t> fast;
   solid->classify_cells(spec, {0, 0, 0}, spec.dims, fast);
   int inside = 0, mismatches = 0;
@@ -66,10 +66,11 @@ TEST(GeometryBunny, FastClassifyEqualsBruteForce) {
         const double w = hg::winding_number(bunny(), p);
         const bool f = fast[spec.cell_index(i, j, k)];
         inside += f;
-        if (f != (w >= 0.5) && std::abs(w - 0.5) >= 1e-6) ++mismatches;
-        // The hierarchical point query must agree with brute force to round-off.
-        const double wf = solid->contains(p);
-        EXPECT_EQ(wf, w >= 0.5) << "w = " << w;
+        // Near w = 0.5 round-off may decide either way; elsewhere the fast cell path
+        // and the hierarchical point query must both agree with brute force.
+        if (std::abs(w - 0.5) < 1e-6) continue;
+        if (f != (w >= 0.5)) ++mismatches;
+        EXPECT_EQ(solid->contains(p), w >= 0.5) << "w = " << w;
       }
     }
   }

@@ -1,0 +1,26 @@
+"""Shared helpers for the command-line tests: run hexcut, write decks to a temp dir."""
+import os
+import subprocess
+import tempfile
+
+HEXCUT = os.environ["HEXCUT"]
+MPIEXEC = os.environ.get("HEXCUT_MPIEXEC", "mpiexec").split()
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_rmaps_base_oversubscribe="1")
+
+
+def run(args, ranks=1, cwd=None):
+    cmd = ([*MPIEXEC, "-n", str(ranks)] if ranks > 1 else []) + [HEXCUT, *args]
+    p = subprocess.run(cmd, cwd=cwd, env=ENV, capture_output=True, text=True, timeout=600)
+    return p.returncode, p.stdout, p.stderr
+
+
+def write(directory, name, text):
+    path = os.path.join(directory, name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def tempdir():
+    return tempfile.mkdtemp(prefix="hexcut-test-")
