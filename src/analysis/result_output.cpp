@@ -1,5 +1,6 @@
 #include "analysis/result_output.hpp"
 
+#include "analysis/events.hpp"
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
@@ -185,7 +186,9 @@ void ResultOutput::write_step(const State& s, bool corotational) {
                           o.has_field("principal_stress") || o.has_field("principal_directions");
   if (any_stress) {
     CellStressFields f;
+    PetscLogEventBegin(events().stress, 0, 0, 0, 0);
     check_petsc(compute_stress(model_, corotational, s.u, &f), "compute_stress");
+    PetscLogEventEnd(events().stress, 0, 0, 0, 0);
     if (o.has_field("stress")) write_cell_values(s.step, "stress", 6, f.sigma, "Pa");
     if (o.has_field("von_mises")) write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa");
     if (o.has_field("pressure")) write_cell_values(s.step, "pressure", 1, f.pressure, "Pa");

@@ -46,6 +46,7 @@ class Simulation {
   double elastic_energy(const State& s);
 
   bool corotational() const;
+  KSP ksp() const { return ksp_; }
 
  private:
   void assemble(const assembly::OperatorWeights& w);

@@ -18,6 +18,15 @@
 namespace hexcut::app {
 namespace {
 
+/// Peak resident memory of this process [bytes] (VmHWM), 0 where /proc is unavailable.
+double peak_memory_bytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::stod(line.substr(6));
+  return 0.0;
+}
+
 std::string format_seconds(double s) {
   char buf[32];
   if (s < 120) std::snprintf(buf, sizeof buf, "%.1f s", s);
@@ -77,9 +86,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   PetscLogEventBegin(ev.setup, 0, 0, 0, 0);
   check_petsc(an::build_model(comm, deck, int(superblock), &model), "build_model");
   PetscLogEventEnd(ev.setup, 0, 0, 0, 0);
-  PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s), solver %s\n",
+  PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",
               int(model.lattice.num_cells()), int(model.copies.num_copies), 3 * int(model.copies.num_copies),
-              int(model.boundary.constraints.global_count), model.layout.num_ranks, deck::to_string(deck.solver.type));
+              int(model.boundary.constraints.global_count), model.layout.num_ranks);
 
   const bool restart = !options.restart_path.empty();
   std::string path = options.restart_path;
@@ -89,6 +98,16 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   }
   an::ResultOutput out(comm, model, deck, path, options.command_line, restart);
   an::Simulation sim(comm, model, deck);
+  {
+    KSPType ksp_type;
+    PCType pc_type;
+    PC pc;
+    check_petsc(KSPGetType(sim.ksp(), &ksp_type), "KSPGetType");
+    check_petsc(KSPGetPC(sim.ksp(), &pc), "KSPGetPC");
+    check_petsc(PCGetType(pc, &pc_type), "PCGetType");
+    PetscPrintf(comm, "hexcut: solver %s (KSP %s, PC %s), rtol %g\n", deck::to_string(deck.solver.type), ksp_type,
+                pc_type ? pc_type : "none", deck.solver.rtol);
+  }
   an::State state;
   check_petsc(an::create_state(model.dm, &state), "create_state");
 
@@ -149,8 +168,10 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   }
   PetscLogDouble t_end;
   PetscTime(&t_end);
-  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s)\n", out.path().c_str(), out.writer().xdmf_path().c_str(),
-              t_end - t_start);
+  double peak = peak_memory_bytes(), total_peak = 0;
+  MPI_Allreduce(&peak, &total_peak, 1, MPI_DOUBLE, MPI_SUM, comm);
+  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s, peak memory %.1f MiB over all ranks)\n", out.path().c_str(),
+              out.writer().xdmf_path().c_str(), t_end - t_start, total_peak / (1024.0 * 1024.0));
   check_petsc(an::destroy_state(&state), "destroy_state");
   check_petsc(an::destroy_model(&model), "destroy_model");
 }
