@@ -36,8 +36,20 @@ class ScratchVec {
 
 Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
-  check_petsc(assembly::create_matrix(comm, model.copies, model.partition, model.layout, &A_), "create_matrix");
   check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
+  if (uses_multigrid()) {
+    mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition, model.dm,
+                                                 multigrid::read_options());
+    PC pc;
+    check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");
+    check_petsc(mg_->attach(pc), "attach");
+  } else {
+    check_petsc(assembly::create_matrix(comm, model.copies, model.partition, model.layout, &A_), "create_matrix");
+  }
+}
+
+bool Simulation::uses_multigrid() const {
+  return deck_.solver.type == deck::Solver::Type::gmg || deck_.solver.type == deck::Solver::Type::gmg_cycles;
 }
 
 Simulation::~Simulation() {
@@ -51,9 +63,15 @@ bool Simulation::corotational() const {
 
 void Simulation::assemble(const assembly::OperatorWeights& w) {
   EventScope scope(events().assembly);
-  check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, w, A_), "assemble_matrix");
-  check_petsc(assembly::constrain_matrix(model_.boundary.constraints, A_), "constrain_matrix");
-  check_petsc(solve::set_operator(ksp_, deck_.solver, A_, model_.coordinates), "set_operator");
+  if (mg_) {
+    // Matrix-free: the fine operator reads the cell data; the hierarchy is rebuilt.
+    mg_->update(model_.cells, w, model_.boundary.constraints.rows);
+    check_petsc(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()), "KSPSetOperators");
+  } else {
+    check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, w, A_), "assemble_matrix");
+    check_petsc(assembly::constrain_matrix(model_.boundary.constraints, A_), "constrain_matrix");
+    check_petsc(solve::set_operator(ksp_, deck_.solver, A_, model_.coordinates), "set_operator");
+  }
   assembled_ = true;
 }
 

@@ -9,6 +9,7 @@
 
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
+#include "multigrid/gmg.hpp"
 #include "solve/linear_solver.hpp"
 
 namespace hexcut::analysis {
@@ -46,7 +47,10 @@ class Simulation {
   double elastic_energy(const State& s);
 
   bool corotational() const;
+  bool uses_multigrid() const;
   KSP ksp() const { return ksp_; }
+  /// The multigrid preconditioner (solver gmg or gmg-cycles), else null.
+  multigrid::Multigrid* multigrid() const { return mg_.get(); }
 
  private:
   void assemble(const assembly::OperatorWeights& w);
@@ -55,7 +59,8 @@ class Simulation {
   MPI_Comm comm_;
   Model& model_;
   const deck::Deck& deck_;
-  Mat A_ = nullptr;
+  Mat A_ = nullptr;  // assembled operator (not created for gmg)
+  std::unique_ptr<multigrid::Multigrid> mg_;
   KSP ksp_ = nullptr;
   bool assembled_ = false;
 };

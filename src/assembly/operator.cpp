@@ -9,7 +9,8 @@ namespace {
 
 constexpr double kIdentity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
-/// The 24x24 operator block of local cell e: w_K R K R^T + w_M M_e.
+}  // namespace
+
 void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A) {
   const auto& ref = element::reference_matrices();
   double K[element::kElementMatrixSize];
@@ -27,8 +28,6 @@ void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& 
     }
   }
 }
-
-}  // namespace
 
 CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D) {
   CellData C;

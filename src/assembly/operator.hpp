@@ -34,6 +34,9 @@ struct OperatorWeights {
   bool lumped_mass = true;
 };
 
+/// The dense 24x24 operator of local cell e: w_K R^ K R^T + w_M M_e.
+void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A);
+
 /// Sets every rotation to the identity (linear elasticity).
 void set_identity_rotations(CellData& cells);
 

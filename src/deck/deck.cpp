@@ -494,7 +494,7 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
 }
 
 Solver parse_solver(const Context& c, const YAML::Node& n) {
-  check_keys(c, n, "solver", {"type", "rtol", "max_iterations", "petsc_options"});
+  check_keys(c, n, "solver", {"type", "rtol", "max_iterations", "cycles", "petsc_options"});
   Solver s;
   if (n["type"]) {
     const auto t = get_string(c, n["type"], "solver.type");
@@ -502,9 +502,14 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
     else if (t == "hypre") s.type = Solver::Type::hypre;
     else if (t == "gamg") s.type = Solver::Type::gamg;
     else if (t == "direct") s.type = Solver::Type::direct;
-    else if (t == "gmg" || t == "gmg-cycles")
-      c.fail(n["type"], "solver '" + t + "' is not implemented yet (see doc/user-guide.md); use cg-jacobi, hypre, gamg or direct");
-    else c.fail(n["type"], "solver.type must be one of cg-jacobi, hypre, gamg, direct");
+    else if (t == "gmg") s.type = Solver::Type::gmg;
+    else if (t == "gmg-cycles") s.type = Solver::Type::gmg_cycles;
+    else c.fail(n["type"], "solver.type must be one of gmg, gmg-cycles, cg-jacobi, hypre, gamg, direct");
+  }
+  if (n["cycles"]) {
+    if (s.type != Solver::Type::gmg_cycles) c.fail(n["cycles"], "'cycles' applies only to solver type gmg-cycles");
+    s.cycles = get_int(c, n["cycles"], "solver.cycles");
+    if (s.cycles < 1) c.fail(n["cycles"], "solver.cycles must be >= 1");
   }
   if (n["rtol"]) {
     s.rtol = positive(c, n["rtol"], "solver.rtol");
@@ -601,6 +606,8 @@ const char* to_string(Solver::Type t) {
     case Solver::Type::hypre: return "hypre";
     case Solver::Type::gamg: return "gamg";
     case Solver::Type::direct: return "direct";
+    case Solver::Type::gmg: return "gmg";
+    case Solver::Type::gmg_cycles: return "gmg-cycles";
   }
   return "?";
 }

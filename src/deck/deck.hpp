@@ -101,8 +101,9 @@ struct Analysis {
 };
 
 struct Solver {
-  enum class Type { cg_jacobi, hypre, gamg, direct };
+  enum class Type { cg_jacobi, hypre, gamg, direct, gmg, gmg_cycles };
   Type type = Type::hypre;
+  int cycles = 2;  // gmg-cycles: V-cycles per solve (Richardson, no convergence test)
   double rtol = 1e-8;
   int max_iterations = 10000;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // name (with '-'), value

@@ -63,6 +63,15 @@ PetscErrorCode set_default_options(const deck::Solver& s) {
       PetscCall(set_if_unset("-mg_levels_ksp_type", "chebyshev"));
       PetscCall(set_if_unset("-mg_levels_pc_type", "jacobi"));
       break;
+    case deck::Solver::Type::gmg:
+      // CG preconditioned by hexcut's V-cycle (a PCSHELL attached by the analysis).
+      PetscCall(set_if_unset("-ksp_type", "cg"));
+      break;
+    case deck::Solver::Type::gmg_cycles:
+      // The theses' real-time mode: a fixed number of V-cycles (Richardson), warm-started
+      // from the previous step, no convergence test.
+      PetscCall(set_if_unset("-ksp_type", "richardson"));
+      break;
     case deck::Solver::Type::direct:
       // Cholesky through MUMPS (parallel); the matrix is SPD after symmetric elimination.
       PetscCall(set_if_unset("-ksp_type", "preonly"));
@@ -78,8 +87,14 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* k
   PetscCall(KSPCreate(comm, ksp));
   PetscCall(KSPSetDM(*ksp, dm));
   PetscCall(KSPSetDMActive(*ksp, PETSC_FALSE));  // operators come from hexcut, not the DM
-  PetscCall(KSPSetTolerances(*ksp, s.rtol, PETSC_DEFAULT, PETSC_DEFAULT, s.max_iterations));
-  PetscCall(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
+  if (s.type == deck::Solver::Type::gmg_cycles) {
+    PetscCall(KSPSetTolerances(*ksp, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, s.cycles));
+    PetscCall(KSPSetNormType(*ksp, KSP_NORM_NONE));
+    PetscCall(KSPSetConvergenceTest(*ksp, KSPConvergedSkip, nullptr, nullptr));
+  } else {
+    PetscCall(KSPSetTolerances(*ksp, s.rtol, PETSC_DEFAULT, PETSC_DEFAULT, s.max_iterations));
+    PetscCall(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
+  }
   PetscCall(KSPSetFromOptions(*ksp));
   // Iterative solvers start from the last solution (time steps, load steps, fixed-point
   // iterations); a direct solve (preonly) rejects an initial guess.

@@ -46,22 +46,38 @@ DofLayout build_dof_layout(const VertexCopies& V, const Partition& P, int rank) 
   return D;
 }
 
+PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& D, PetscInt bs, Vec* global, Vec* local,
+                                    VecScatter* g2l) {
+  PetscFunctionBeginUser;
+  PetscCall(VecCreateMPI(comm, bs * D.num_owned, PETSC_DETERMINE, global));
+  PetscCall(VecSetBlockSize(*global, bs));
+  PetscCall(VecCreateSeq(PETSC_COMM_SELF, bs * D.num_local(), local));
+  PetscCall(VecSetBlockSize(*local, bs));
+  std::vector<PetscInt> gidx(D.num_local());
+  for (std::int32_t i = 0; i < D.num_local(); ++i) gidx[i] = D.global_block[D.copies[i]];
+  IS is_global, is_local;
+  PetscCall(ISCreateBlock(PETSC_COMM_SELF, bs, D.num_local(), gidx.data(), PETSC_COPY_VALUES, &is_global));
+  PetscCall(ISCreateStride(PETSC_COMM_SELF, bs * D.num_local(), 0, 1, &is_local));
+  PetscCall(VecScatterCreate(*global, is_global, *local, is_local, g2l));
+  PetscCall(ISDestroy(&is_global));
+  PetscCall(ISDestroy(&is_local));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode create_dm(MPI_Comm comm, const DofLayout& D, DM* dm) {
   PetscFunctionBeginUser;
   Vec global, local;
-  PetscCall(VecCreateMPI(comm, 3 * D.num_owned, PETSC_DETERMINE, &global));
-  PetscCall(VecSetBlockSize(global, 3));
-  PetscCall(VecCreateSeq(PETSC_COMM_SELF, 3 * D.num_local(), &local));
-  PetscCall(VecSetBlockSize(local, 3));
-
+  VecScatter g2l, l2g;
+  PetscCall(create_ghost_scatter(comm, D, 3, &global, &local, &g2l));
+  // DMShell's local-to-global runs its scatter forward: build the reverse direction.
   std::vector<PetscInt> gidx(D.num_local());
   for (std::int32_t i = 0; i < D.num_local(); ++i) gidx[i] = D.global_block[D.copies[i]];
   IS is_global, is_local;
   PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, D.num_local(), gidx.data(), PETSC_COPY_VALUES, &is_global));
   PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * D.num_local(), 0, 1, &is_local));
-  VecScatter g2l, l2g;
-  PetscCall(VecScatterCreate(global, is_global, local, is_local, &g2l));
   PetscCall(VecScatterCreate(local, is_local, global, is_global, &l2g));
+  PetscCall(ISDestroy(&is_global));
+  PetscCall(ISDestroy(&is_local));
 
   PetscCall(DMShellCreate(comm, dm));
   PetscCall(DMShellSetGlobalVector(*dm, global));
@@ -70,9 +86,6 @@ PetscErrorCode create_dm(MPI_Comm comm, const DofLayout& D, DM* dm) {
   PetscCall(DMShellSetLocalToGlobalVecScatter(*dm, l2g));
   PetscCall(PetscObjectSetName((PetscObject)*dm, "hexcut-dofs"));
   PetscCall(DMSetUp(*dm));
-
-  PetscCall(ISDestroy(&is_global));
-  PetscCall(ISDestroy(&is_local));
   PetscCall(VecScatterDestroy(&g2l));
   PetscCall(VecScatterDestroy(&l2g));
   PetscCall(VecDestroy(&global));

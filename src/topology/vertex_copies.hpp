@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "lattice/lattice.hpp"
+#include "topology/cell_graph.hpp"
 
 namespace hexcut::topology {
 
@@ -27,9 +28,11 @@ struct VertexCopies {
   std::vector<std::int32_t> first_cell;  // per copy: lowest-numbered incident cell
 };
 
-/// Builds vertex copies from the lattice's cells and links. The numbering is a pure
+/// Builds vertex copies from a level's cells and links (several cells may share a
+/// position on coarse levels). The numbering is a pure
 /// function of the lattice (cells are visited in order), so it does not depend on the
 /// number of MPI ranks: it is the "canonical" point order of the output files.
+VertexCopies build_vertex_copies(const CellGraph& graph);
 VertexCopies build_vertex_copies(const lattice::Lattice& lattice);
 
 }  // namespace hexcut::topology

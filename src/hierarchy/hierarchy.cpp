@@ -1,0 +1,193 @@
+#include "hierarchy/hierarchy.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+namespace hexcut::hierarchy {
+namespace {
+
+int find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
+}
+
+int octant_of(const std::array<std::int32_t, 3>& p) { return (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1); }
+
+/// Weights of the 8 coarse corners at a point with coarse-local coordinates t in [0,1]^3.
+void trilinear(const double t[3], double w[8]) {
+  for (int j = 0; j < 8; ++j) {
+    w[j] = 1.0;
+    for (int d = 0; d < 3; ++d) w[j] *= ((j >> d) & 1) ? t[d] : 1.0 - t[d];
+  }
+}
+
+}  // namespace
+
+double transfer_weight(int octant, int fine_corner, int coarse_corner) {
+  double t[3], w[8];
+  for (int d = 0; d < 3; ++d) t[d] = 0.5 * (((octant >> d) & 1) + ((fine_corner >> d) & 1));
+  trilinear(t, w);
+  return w[coarse_corner];
+}
+
+topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, std::vector<std::int32_t>* parent) {
+  const std::int32_t n = fine.num_cells();
+  topology::CellGraph coarse;
+  coarse.spec = fine.spec;
+  coarse.spec.h = 2 * fine.spec.h;
+  for (int d = 0; d < 3; ++d) coarse.spec.dims[d] = (fine.spec.dims[d] + 1) / 2;
+  auto block_key = [&](std::int32_t c) {
+    const auto& p = fine.ijk[c];
+    return coarse.spec.cell_index(p[0] / 2, p[1] / 2, p[2] / 2);
+  };
+  // Union cells of one block: linked ones (components) or all of them (naive).
+  std::vector<std::int32_t> root(n);
+  std::iota(root.begin(), root.end(), 0);
+  if (mode == Coarsening::components) {
+    for (std::int32_t c = 0; c < n; ++c)
+      for (auto l = fine.link_offset[c]; l < fine.link_offset[c + 1]; ++l) {
+        const auto b = fine.link_target[l];
+        if (block_key(b) != block_key(c)) continue;
+        const auto ra = find_root(root, c), rb = find_root(root, b);
+        if (ra != rb) root[std::max(ra, rb)] = std::min(ra, rb);
+      }
+  } else {
+    std::map<std::int64_t, std::int32_t> first;
+    for (std::int32_t c = 0; c < n; ++c) {
+      auto it = first.emplace(block_key(c), c).first;
+      const auto ra = find_root(root, c), rb = find_root(root, it->second);
+      if (ra != rb) root[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  // Coarse cells in order of (block, lowest child): deterministic, rank-independent.
+  std::vector<std::int32_t> roots;
+  for (std::int32_t c = 0; c < n; ++c)
+    if (find_root(root, c) == c) roots.push_back(c);
+  std::stable_sort(roots.begin(), roots.end(),
+                   [&](std::int32_t a, std::int32_t b) { return block_key(a) < block_key(b); });
+  std::vector<std::int32_t> coarse_of_root(n, -1);
+  for (std::size_t i = 0; i < roots.size(); ++i) {
+    coarse_of_root[roots[i]] = std::int32_t(i);
+    const auto& p = fine.ijk[roots[i]];
+    coarse.ijk.push_back({p[0] / 2, p[1] / 2, p[2] / 2});
+  }
+  parent->resize(n);
+  for (std::int32_t c = 0; c < n; ++c) (*parent)[c] = coarse_of_root[find_root(root, c)];
+  // Coarse links: any fine link between different coarse cells.
+  std::vector<std::array<std::int32_t, 2>> pairs;
+  for (std::int32_t c = 0; c < n; ++c)
+    for (auto l = fine.link_offset[c]; l < fine.link_offset[c + 1]; ++l) {
+      const auto a = (*parent)[c], b = (*parent)[fine.link_target[l]];
+      if (a < b) pairs.push_back({a, b});
+    }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  topology::set_links(coarse, std::move(pairs));
+  return coarse;
+}
+
+std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
+                                   const topology::Partition& partition, int rank,
+                                   const HierarchyOptions& opt) {
+  std::vector<Level> levels(1);
+  levels[0].graph = fine;
+  levels[0].copies = copies;
+  levels[0].partition = partition;
+  levels[0].layout = topology::build_dof_layout(copies, partition, rank);
+  const int max_levels = 1 + int(std::lround(std::log2(double(std::max(1, partition.superblock)))));
+  const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
+  while (int(levels.size()) < wanted) {
+    const auto& f = levels.back();
+    if (opt.levels == 0 && 3 * std::int64_t(f.copies.num_copies) <= opt.coarse_dofs) break;
+    Level c;
+    c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
+    if (opt.levels == 0 && c.graph.num_cells() == f.graph.num_cells()) break;
+    c.copies = topology::build_vertex_copies(c.graph);
+    c.partition.num_ranks = partition.num_ranks;
+    c.partition.superblock = std::max(1, f.partition.superblock / 2);
+    c.partition.cell_rank.assign(c.graph.num_cells(), 0);
+    const auto& par = levels.back().parent;
+    for (std::int32_t e = 0; e < f.graph.num_cells(); ++e) c.partition.cell_rank[par[e]] = f.partition.cell_rank[e];
+    c.partition.copy_rank.resize(c.copies.num_copies);
+    for (std::int32_t v = 0; v < c.copies.num_copies; ++v)
+      c.partition.copy_rank[v] = c.partition.cell_rank[c.copies.first_cell[v]];
+    c.layout = topology::build_dof_layout(c.copies, c.partition, rank);
+    levels.push_back(std::move(c));
+  }
+  return levels;
+}
+
+namespace {
+
+/// Weights that incident cell `cell` of fine copy `copy` (at corner q) gives.
+void weights_from_cell(const Level& fine, const Level& coarse, std::int32_t cell, int q,
+                       std::array<std::int32_t, 8>* ids, std::array<double, 8>* w) {
+  const int o = octant_of(fine.graph.ijk[cell]);
+  const auto C = fine.parent[cell];
+  for (int j = 0; j < 8; ++j) {
+    (*ids)[j] = coarse.copies.cell_corners[C][j];
+    (*w)[j] = transfer_weight(o, q, j);
+  }
+}
+
+}  // namespace
+
+Interpolation interpolation(const Level& fine, const Level& coarse, int rank) {
+  Interpolation I;
+  // Corner of each copy in its first cell.
+  for (std::int32_t v = 0; v < fine.copies.num_copies; ++v) {
+    if (fine.partition.copy_rank[v] != rank) continue;
+    const auto cell = fine.copies.first_cell[v];
+    int q = 0;
+    while (fine.copies.cell_corners[cell][q] != v) ++q;
+    std::array<std::int32_t, 8> ids;
+    std::array<double, 8> w;
+    weights_from_cell(fine, coarse, cell, q, &ids, &w);
+    // Drop zero weights: a fine vertex at a coarse vertex has one weight 1.
+    std::array<std::int32_t, 8> keep_ids;
+    std::array<double, 8> keep_w;
+    keep_ids.fill(-1);
+    keep_w.fill(0.0);
+    int k = 0;
+    for (int j = 0; j < 8; ++j)
+      if (w[j] != 0.0) {
+        keep_ids[k] = ids[j];
+        keep_w[k++] = w[j];
+      }
+    I.fine.push_back(v);
+    I.coarse.push_back(keep_ids);
+    I.weight.push_back(keep_w);
+  }
+  return I;
+}
+
+double interpolation_mismatch(const Level& fine, const Level& coarse) {
+  // For every copy, compare the weight map (coarse copy -> weight) of every incident cell
+  // with the one of its first cell.
+  std::vector<std::map<std::int32_t, double>> reference(fine.copies.num_copies);
+  std::vector<char> have(fine.copies.num_copies, 0);
+  double worst = 0.0;
+  for (std::int32_t c = 0; c < fine.graph.num_cells(); ++c)
+    for (int q = 0; q < 8; ++q) {
+      const auto v = fine.copies.cell_corners[c][q];
+      std::array<std::int32_t, 8> ids;
+      std::array<double, 8> w;
+      weights_from_cell(fine, coarse, c, q, &ids, &w);
+      std::map<std::int32_t, double> m;
+      for (int j = 0; j < 8; ++j)
+        if (w[j] != 0.0) m[ids[j]] += w[j];
+      if (!have[v]) {
+        reference[v] = m;
+        have[v] = 1;
+        continue;
+      }
+      std::map<std::int32_t, double> diff = reference[v];
+      for (const auto& [id, x] : m) diff[id] -= x;
+      for (const auto& [id, x] : diff) worst = std::max(worst, std::abs(x));
+    }
+  return worst;
+}
+
+}  // namespace hexcut::hierarchy

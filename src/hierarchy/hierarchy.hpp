@@ -1,0 +1,72 @@
+// The multigrid hierarchy (design.md §5). Level 0 is the simulation lattice. A cell of
+// level l+1 is a connected component (under the links) of the level-l cells in one
+// 2x2x2 block, so several coarse cells may share a position: pieces separated by empty
+// space or, later, by cuts get their own coarse cells and never share coarse DOFs.
+// Two coarse cells are linked iff some pair of their children is. Vertex copies are
+// rebuilt per level exactly as on the fine level. The "naive" variant merges by
+// position only, for comparison.
+//
+// Every level is distributed like the fine one: a coarse cell lives on the rank of its
+// children (they share a partition super-block as long as the number of levels is at
+// most log2(superblock) + 1), and a coarse vertex copy on the rank of its
+// lowest-numbered incident cell.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "topology/cell_graph.hpp"
+#include "topology/dof_layout.hpp"
+#include "topology/partition.hpp"
+#include "topology/vertex_copies.hpp"
+
+namespace hexcut::hierarchy {
+
+enum class Coarsening { components, naive };
+
+struct Level {
+  topology::CellGraph graph;
+  topology::VertexCopies copies;
+  topology::Partition partition;
+  topology::DofLayout layout;
+  std::vector<std::int32_t> parent;  // per cell of this level: its cell on the next level
+};
+
+/// The coarse graph of `fine` and the parent of every fine cell.
+topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode,
+                            std::vector<std::int32_t>* parent);
+
+struct HierarchyOptions {
+  int levels = 0;               // 0 = automatic
+  std::int64_t coarse_dofs = 3000;  // automatic: stop once a level has at most this many DOFs
+  Coarsening mode = Coarsening::components;
+};
+
+/// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and layout.
+/// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
+/// coarsening no longer reduces the cell count, and never exceeds
+/// log2(partition.superblock) + 1 levels.
+std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
+                                   const topology::Partition& partition, int rank,
+                                   const HierarchyOptions& options);
+
+/// Interpolation weights from level l+1 to level l for the fine copies owned by `rank`
+/// (indices are canonical copy ids of each level): fine copy f = sum_j w_j coarse_j.
+/// A fine copy takes the weights of the coarse cell of its lowest-numbered incident cell;
+/// every other incident cell gives the same weights (checked by interpolation_mismatch).
+struct Interpolation {
+  std::vector<std::int32_t> fine;                 // owned fine copies (canonical)
+  std::vector<std::array<std::int32_t, 8>> coarse;  // coarse copies (canonical), -1 = unused
+  std::vector<std::array<double, 8>> weight;
+};
+Interpolation interpolation(const Level& fine, const Level& coarse, int rank);
+
+/// Largest difference, over all fine copies and all their incident cells, between the
+/// interpolation weights the different incident cells give (0 when consistent).
+double interpolation_mismatch(const Level& fine, const Level& coarse);
+
+/// Trilinear weight of coarse corner j at fine corner i of the child in octant o
+/// (o = a + 2b + 4c: the child's offset in its 2x2x2 block).
+double transfer_weight(int octant, int fine_corner, int coarse_corner);
+
+}  // namespace hexcut::hierarchy

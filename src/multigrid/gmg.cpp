@@ -1,0 +1,679 @@
+#include "multigrid/gmg.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <set>
+
+#include "common/errors.hpp"
+#include "common/petsc_check.hpp"
+#include "element/element.hpp"
+#include "multigrid/kernels.hpp"
+
+namespace hexcut::multigrid {
+
+struct Multigrid::LevelData {
+  DM dm = nullptr;
+  bool own_dm = false;
+  Vec b = nullptr, x = nullptr, r = nullptr, tmp = nullptr;  // global
+  Vec xl = nullptr, yl = nullptr;                            // local
+  Vec mask = nullptr;                                        // global: 1 free, 0 prescribed or dead
+  std::vector<double> mask_local;                            // per local DOF
+  std::vector<double> cell_matrix;                           // 576 per local cell (l >= 1)
+  std::vector<double> diag_inv;                              // 9 per owned copy
+  std::vector<int> colour;                                   // per owned copy
+  std::vector<std::array<int, 3>> cell_pos;                  // per local cell
+  std::vector<std::int32_t> local_cell;                      // canonical cell -> local index, -1
+  Vec diag_g = nullptr, diag_l = nullptr;                    // 9 per copy
+  VecScatter diag_scatter = nullptr;
+  Mat P = nullptr;  // interpolation from level l+1 (3 DOFs per copy)
+  double lambda_max = 0.0;
+};
+
+namespace {
+
+PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
+  PetscFunctionBeginUser;
+  Multigrid* mg;
+  PetscCall(MatShellGetContext(A, &mg));
+  PetscCall(mg->apply_fine(x, y));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_apply(PC pc, Vec b, Vec x) {
+  PetscFunctionBeginUser;
+  Multigrid* mg;
+  PetscCall(PCShellGetContext(pc, &mg));
+  PetscCall(mg->vcycle(b, x));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_view(PC pc, PetscViewer viewer) {
+  PetscFunctionBeginUser;
+  Multigrid* mg;
+  PetscCall(PCShellGetContext(pc, &mg));
+  PetscCall(mg->view(viewer));
+  PetscFunctionReturn(0);
+}
+
+void gather24(const double* v, const std::array<std::int32_t, 8>& corners, double* out) {
+  for (int q = 0; q < 8; ++q)
+    for (int d = 0; d < 3; ++d) out[3 * q + d] = v[3 * corners[q] + d];
+}
+
+void scatter_add24(const double* in, const std::array<std::int32_t, 8>& corners, double* v) {
+  for (int q = 0; q < 8; ++q)
+    for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += in[3 * q + d];
+}
+
+}  // namespace
+
+Options read_options() {
+  Options o;
+  PetscInt n;
+  PetscBool set;
+  char buf[64];
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_levels", &n, &set), "options");
+  if (set) {
+    if (n < 1) throw InputError("-gmg_levels must be >= 1");
+    o.hierarchy.levels = int(n);
+  }
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_coarse_dofs", &n, &set), "options");
+  if (set) {
+    if (n < 3) throw InputError("-gmg_coarse_dofs must be >= 3");
+    o.hierarchy.coarse_dofs = n;
+  }
+  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_hierarchy", buf, sizeof buf, &set), "options");
+  if (set) {
+    if (!std::strcmp(buf, "naive")) o.hierarchy.mode = hierarchy::Coarsening::naive;
+    else if (!std::strcmp(buf, "components")) o.hierarchy.mode = hierarchy::Coarsening::components;
+    else throw InputError(std::string("-gmg_hierarchy must be components or naive, got ") + buf);
+  }
+  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_smoother", buf, sizeof buf, &set), "options");
+  if (set) {
+    if (!std::strcmp(buf, "gs")) o.smoother = Smoother::gauss_seidel;
+    else if (!std::strcmp(buf, "chebyshev")) o.smoother = Smoother::chebyshev;
+    else throw InputError(std::string("-gmg_smoother must be gs or chebyshev, got ") + buf);
+  }
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_presmooth", &n, &set), "options");
+  if (set) o.presmooth = int(n);
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_postsmooth", &n, &set), "options");
+  if (set) o.postsmooth = int(n);
+  if (o.presmooth < 0 || o.postsmooth < 0 || o.presmooth + o.postsmooth == 0)
+    throw InputError("-gmg_presmooth and -gmg_postsmooth must be >= 0 and not both 0");
+  PetscReal w;
+  check_petsc(PetscOptionsGetReal(nullptr, nullptr, "-gmg_omega", &w, &set), "options");
+  if (set) {
+    if (!(w > 0 && w < 2)) throw InputError("-gmg_omega must be in (0, 2)");
+    o.omega = w;
+  }
+  PetscBool view = PETSC_FALSE;
+  check_petsc(PetscOptionsGetBool(nullptr, nullptr, "-gmg_view", &view, nullptr), "options");
+  o.view = view;
+  return o;
+}
+
+Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
+                     const topology::Partition& partition, DM fine_dm, const Options& options)
+    : comm_(comm), opt_(options) {
+  PetscClassId id;
+  check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
+  check_petsc(PetscLogEventRegister("gmgSetup", id, &ev_setup_), "event");
+  check_petsc(PetscLogEventRegister("gmgVcycle", id, &ev_apply_), "event");
+  check_petsc(PetscLogEventRegister("gmgSmooth", id, &ev_smooth_), "event");
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition, rank,
+                                       options.hierarchy);
+  const int L = int(levels_.size());
+  for (int l = 0; l < L; ++l) {
+    auto d = std::make_unique<LevelData>();
+    const auto& lev = levels_[l];
+    if (l == 0) {
+      d->dm = fine_dm;
+    } else {
+      check_petsc(topology::create_dm(comm, lev.layout, &d->dm), "create_dm");
+      d->own_dm = true;
+    }
+    check_petsc(DMCreateGlobalVector(d->dm, &d->b), "vec");
+    check_petsc(VecDuplicate(d->b, &d->x), "vec");
+    check_petsc(VecDuplicate(d->b, &d->r), "vec");
+    check_petsc(VecDuplicate(d->b, &d->tmp), "vec");
+    check_petsc(VecDuplicate(d->b, &d->mask), "vec");
+    check_petsc(DMCreateLocalVector(d->dm, &d->xl), "vec");
+    check_petsc(VecDuplicate(d->xl, &d->yl), "vec");
+    check_petsc(topology::create_ghost_scatter(comm, lev.layout, 9, &d->diag_g, &d->diag_l, &d->diag_scatter),
+                "ghost scatter");
+    const auto& D = lev.layout;
+    d->cell_pos.resize(D.cells.size());
+    d->local_cell.assign(lev.graph.num_cells(), -1);
+    for (std::size_t e = 0; e < D.cells.size(); ++e) {
+      const auto& p = lev.graph.ijk[D.cells[e]];
+      d->cell_pos[e] = {p[0], p[1], p[2]};
+      d->local_cell[D.cells[e]] = std::int32_t(e);
+    }
+    d->colour.resize(D.num_owned);
+    for (std::int32_t i = 0; i < D.num_owned; ++i) {
+      const auto& v = lev.copies.vertex[D.copies[i]];
+      d->colour[i] = (v[0] & 1) + 2 * (v[1] & 1) + 4 * (v[2] & 1);
+    }
+    data_.push_back(std::move(d));
+  }
+  // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
+  for (int l = 0; l + 1 < L; ++l) {
+    const auto I = hierarchy::interpolation(levels_[l], levels_[l + 1], rank);
+    const auto& fine = levels_[l].layout;
+    const auto& coarse = levels_[l + 1].layout;
+    Mat P;
+    check_petsc(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE, PETSC_DETERMINE, 8, nullptr, 8,
+                             nullptr, &P),
+                "MatCreateAIJ");
+    for (std::size_t i = 0; i < I.fine.size(); ++i) {
+      const PetscInt row = fine.global_block[I.fine[i]];
+      for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j)
+        check_petsc(MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES),
+                    "MatSetValue");
+    }
+    check_petsc(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "assembly");
+    check_petsc(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "assembly");
+    check_petsc(MatCreateMAIJ(P, 3, &data_[l]->P), "MatCreateMAIJ");
+    check_petsc(MatDestroy(&P), "MatDestroy");
+  }
+  const auto& D0 = levels_[0].layout;
+  check_petsc(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE, PETSC_DETERMINE, this, &shell_),
+              "MatCreateShell");
+  check_petsc(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult), "MatShellSetOperation");
+  check_petsc(MatSetBlockSize(shell_, 3), "MatSetBlockSize");
+  check_petsc(MatSetOption(shell_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+  check_petsc(MatSetOption(shell_, MAT_SPD, PETSC_TRUE), "MatSetOption");
+}
+
+Multigrid::~Multigrid() {
+  for (auto& d : data_) {
+    VecDestroy(&d->b);
+    VecDestroy(&d->x);
+    VecDestroy(&d->r);
+    VecDestroy(&d->tmp);
+    VecDestroy(&d->mask);
+    VecDestroy(&d->xl);
+    VecDestroy(&d->yl);
+    VecDestroy(&d->diag_g);
+    VecDestroy(&d->diag_l);
+    VecScatterDestroy(&d->diag_scatter);
+    MatDestroy(&d->P);
+    if (d->own_dm) DMDestroy(&d->dm);
+  }
+  MatDestroy(&shell_);
+  MatDestroy(&coarse_matrix_);
+  KSPDestroy(&coarse_ksp_);
+}
+
+const std::vector<double>& Multigrid::cell_matrices(int l) const { return data_[l]->cell_matrix; }
+Mat Multigrid::interpolation(int l) const { return data_[l]->P; }
+PetscErrorCode Multigrid::create_vector(int l, Vec* v) const { return DMCreateGlobalVector(data_[l]->dm, v); }
+
+void Multigrid::update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
+                       const std::vector<PetscInt>& constrained_rows) {
+  PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
+  fine_cells_ = &cells;
+  weights_ = w;
+  const int L = num_levels();
+  // Level 0 mask from the prescribed rows, then to the ghosts.
+  {
+    auto& d = *data_[0];
+    check_petsc(VecSet(d.mask, 1.0), "VecSet");
+    PetscInt lo;
+    check_petsc(VecGetOwnershipRange(d.mask, &lo, nullptr), "range");
+    PetscScalar* m;
+    check_petsc(VecGetArray(d.mask, &m), "array");
+    for (PetscInt row : constrained_rows) m[row - lo] = 0.0;
+    check_petsc(VecRestoreArray(d.mask, &m), "array");
+    check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+    check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+    const PetscScalar* ml;
+    PetscInt n;
+    check_petsc(VecGetLocalSize(d.xl, &n), "size");
+    check_petsc(VecGetArrayRead(d.xl, &ml), "array");
+    d.mask_local.assign(ml, ml + n);
+    check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
+  }
+  build_diagonal(0);
+  // Galerkin coarse blocks, level by level.
+  for (int l = 1; l < L; ++l) {
+    auto& d = *data_[l];
+    const auto& fine = levels_[l - 1];
+    const auto& fd = *data_[l - 1];
+    d.cell_matrix.assign(576 * levels_[l].layout.cells.size(), 0.0);
+    double A[576];
+    for (std::size_t e = 0; e < fine.layout.cells.size(); ++e) {
+      const double* child;
+      if (l - 1 == 0) {
+        assembly::cell_operator(cells, e, w, A);
+        double m[24];
+        gather24(fd.mask_local.data(), fine.layout.cell_corners[e], m);
+        for (int r = 0; r < 24; ++r)
+          for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
+        child = A;
+      } else {
+        child = &fd.cell_matrix[576 * e];
+      }
+      const auto& p = fd.cell_pos[e];
+      const int octant = (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1);
+      const auto parent = d.local_cell[fine.parent[fine.layout.cells[e]]];
+      galerkin_accumulate(child, octant, &d.cell_matrix[576 * parent]);
+    }
+    build_diagonal(l);
+  }
+  if (opt_.smoother == Smoother::chebyshev)
+    for (int l = 0; l + 1 < L; ++l) estimate_lambda_max(l);
+  build_coarsest();
+  PetscLogEventEnd(ev_setup_, 0, 0, 0, 0);
+  if (opt_.view) check_petsc(view(PETSC_VIEWER_STDOUT_(comm_)), "view");
+}
+
+void Multigrid::build_diagonal(int l) {
+  auto& d = *data_[l];
+  const auto& D = levels_[l].layout;
+  check_petsc(VecSet(d.diag_l, 0.0), "VecSet");
+  PetscScalar* dl;
+  check_petsc(VecGetArray(d.diag_l, &dl), "array");
+  double A[576];
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    const double* Ae;
+    if (l == 0) {
+      assembly::cell_operator(*fine_cells_, e, weights_, A);
+      Ae = A;
+    } else {
+      Ae = &d.cell_matrix[576 * e];
+    }
+    for (int q = 0; q < 8; ++q) {
+      const auto v = D.cell_corners[e][q];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          double a = Ae[24 * (3 * q + i) + 3 * q + j];
+          if (l == 0) a *= d.mask_local[3 * v + i] * d.mask_local[3 * v + j];
+          dl[9 * v + 3 * i + j] += a;
+        }
+    }
+  }
+  check_petsc(VecRestoreArray(d.diag_l, &dl), "array");
+  check_petsc(VecSet(d.diag_g, 0.0), "VecSet");
+  check_petsc(VecScatterBegin(d.diag_scatter, d.diag_l, d.diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  check_petsc(VecScatterEnd(d.diag_scatter, d.diag_l, d.diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  const PetscScalar* dg;
+  check_petsc(VecGetArrayRead(d.diag_g, &dg), "array");
+  PetscScalar* m;
+  check_petsc(VecGetArray(d.mask, &m), "array");
+  d.diag_inv.assign(9 * std::size_t(D.num_owned), 0.0);
+  for (std::int32_t i = 0; i < D.num_owned; ++i) {
+    double block[9];
+    for (int k = 0; k < 9; ++k) block[k] = dg[9 * i + k];
+    for (int c = 0; c < 3; ++c) {
+      // Coarse DOFs that no fine DOF reaches (all prescribed) are dead: identity rows.
+      if (l > 0) m[3 * i + c] = block[4 * c] != 0.0 ? 1.0 : 0.0;
+      if (m[3 * i + c] == 0.0) {
+        for (int k = 0; k < 3; ++k) block[3 * c + k] = block[3 * k + c] = 0.0;
+        block[4 * c] = 1.0;
+      }
+    }
+    if (!invert3(block, &d.diag_inv[9 * i]))
+      throw SolverError("gmg: singular 3x3 diagonal block on level " + std::to_string(l));
+  }
+  check_petsc(VecRestoreArray(d.mask, &m), "array");
+  check_petsc(VecRestoreArrayRead(d.diag_g, &dg), "array");
+  if (l > 0) {
+    check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+    check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+    const PetscScalar* ml;
+    PetscInt n;
+    check_petsc(VecGetLocalSize(d.xl, &n), "size");
+    check_petsc(VecGetArrayRead(d.xl, &ml), "array");
+    d.mask_local.assign(ml, ml + n);
+    check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
+  }
+}
+
+void Multigrid::apply_local(int l, const double* x, double* y) const {
+  const auto& D = levels_[l].layout;
+  const auto& d = *data_[l];
+  double xe[24], ye[24];
+  if (l == 0) {
+    const auto& C = *fine_cells_;
+    const auto& ref = element::reference_matrices();
+    const auto& m = d.mask_local;
+    for (std::size_t e = 0; e < D.cells.size(); ++e) {
+      const auto& corners = D.cell_corners[e];
+      for (int q = 0; q < 8; ++q)
+        for (int k = 0; k < 3; ++k) xe[3 * q + k] = x[3 * corners[q] + k] * m[3 * corners[q] + k];
+      std::fill(ye, ye + 24, 0.0);
+      fine_cell_apply_add(ref, C.h, C.lambda[e], C.mu[e], C.rho[e], &C.rotation[9 * e], weights_.stiffness,
+                          weights_.mass, weights_.lumped_mass, xe, ye);
+      for (int q = 0; q < 8; ++q)
+        for (int k = 0; k < 3; ++k) y[3 * corners[q] + k] += ye[3 * q + k] * m[3 * corners[q] + k];
+    }
+  } else {
+    for (std::size_t e = 0; e < D.cells.size(); ++e) {
+      gather24(x, D.cell_corners[e], xe);
+      std::fill(ye, ye + 24, 0.0);
+      dense_apply_add(&d.cell_matrix[576 * e], xe, ye);
+      scatter_add24(ye, D.cell_corners[e], y);
+    }
+  }
+}
+
+PetscErrorCode Multigrid::apply_level_impl(int l, Vec x, Vec y) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
+  PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+  PetscCall(VecSet(d.yl, 0.0));
+  const PetscScalar* xa;
+  PetscScalar* ya;
+  PetscCall(VecGetArrayRead(d.xl, &xa));
+  PetscCall(VecGetArray(d.yl, &ya));
+  apply_local(l, xa, ya);
+  PetscCall(VecRestoreArrayRead(d.xl, &xa));
+  PetscCall(VecRestoreArray(d.yl, &ya));
+  PetscCall(VecSet(y, 0.0));
+  PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, y));
+  PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, y));
+  // Prescribed and dead DOFs: identity rows.
+  const PetscScalar *m, *xg;
+  PetscScalar* yg;
+  PetscInt n;
+  PetscCall(VecGetLocalSize(y, &n));
+  PetscCall(VecGetArrayRead(d.mask, &m));
+  PetscCall(VecGetArrayRead(x, &xg));
+  PetscCall(VecGetArray(y, &yg));
+  for (PetscInt i = 0; i < n; ++i)
+    if (m[i] == 0.0) yg[i] += xg[i];
+  PetscCall(VecRestoreArray(y, &yg));
+  PetscCall(VecRestoreArrayRead(x, &xg));
+  PetscCall(VecRestoreArrayRead(d.mask, &m));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::apply_fine(Vec x, Vec y) { return apply_level_impl(0, x, y); }
+PetscErrorCode Multigrid::apply_level(int l, Vec x, Vec y) { return apply_level_impl(l, x, y); }
+
+PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& D = levels_[l].layout;
+  const auto& ref = element::reference_matrices();
+  PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
+  PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+  for (int kk = 0; kk < 8; ++kk) {
+    const int k = reverse ? 7 - kk : kk;
+    // A x at the copies of colour k, from the rank's cells: each cell has exactly one
+    // corner of colour k, so a colour costs 1/8 of an operator application.
+    PetscCall(VecSet(d.yl, 0.0));
+    const PetscScalar* xa;
+    PetscScalar* ya;
+    PetscCall(VecGetArrayRead(d.xl, &xa));
+    PetscCall(VecGetArray(d.yl, &ya));
+    double xe[24], y3[3];
+    for (std::size_t e = 0; e < D.cells.size(); ++e) {
+      const auto& corners = D.cell_corners[e];
+      const int q = corner_of_colour(d.cell_pos[e].data(), k);
+      if (l == 0) {
+        const auto& C = *fine_cells_;
+        const auto& m = d.mask_local;
+        for (int p = 0; p < 8; ++p)
+          for (int c = 0; c < 3; ++c) xe[3 * p + c] = xa[3 * corners[p] + c] * m[3 * corners[p] + c];
+        fine_row_block(ref, C.h, C.lambda[e], C.mu[e], C.rho[e], &C.rotation[9 * e], weights_.stiffness,
+                       weights_.mass, weights_.lumped_mass, q, xe, y3);
+        for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c] * m[3 * corners[q] + c];
+      } else {
+        gather24(xa, corners, xe);
+        dense_row_block(&d.cell_matrix[576 * e], q, xe, y3);
+        for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c];
+      }
+    }
+    PetscCall(VecRestoreArrayRead(d.xl, &xa));
+    PetscCall(VecRestoreArray(d.yl, &ya));
+    PetscCall(VecSet(d.r, 0.0));
+    PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, d.r));
+    PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, d.r));
+    const PetscScalar *ba, *ra, *ma;
+    PetscScalar* xg;
+    PetscCall(VecGetArrayRead(b, &ba));
+    PetscCall(VecGetArrayRead(d.r, &ra));
+    PetscCall(VecGetArrayRead(d.mask, &ma));
+    PetscCall(VecGetArray(x, &xg));
+    for (std::int32_t i = 0; i < D.num_owned; ++i) {
+      if (d.colour[i] != k) continue;
+      double res[3];
+      for (int c = 0; c < 3; ++c) res[c] = ba[3 * i + c] - ra[3 * i + c] - (ma[3 * i + c] == 0.0 ? xg[3 * i + c] : 0.0);
+      const double* Di = &d.diag_inv[9 * i];
+      for (int c = 0; c < 3; ++c)
+        xg[3 * i + c] += opt_.omega * (Di[3 * c] * res[0] + Di[3 * c + 1] * res[1] + Di[3 * c + 2] * res[2]);
+    }
+    PetscCall(VecRestoreArray(x, &xg));
+    PetscCall(VecRestoreArrayRead(d.mask, &ma));
+    PetscCall(VecRestoreArrayRead(d.r, &ra));
+    PetscCall(VecRestoreArrayRead(b, &ba));
+    PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
+    PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+  }
+  PetscFunctionReturn(0);
+}
+
+namespace {
+
+/// y = D^{-1} x on owned copies (3x3 blocks).
+PetscErrorCode block_jacobi(const std::vector<double>& diag_inv, Vec x, Vec y) {
+  PetscFunctionBeginUser;
+  const PetscScalar* xa;
+  PetscScalar* ya;
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(VecGetArray(y, &ya));
+  const std::size_t n = diag_inv.size() / 9;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* Di = &diag_inv[9 * i];
+    for (int c = 0; c < 3; ++c)
+      ya[3 * i + c] = Di[3 * c] * xa[3 * i] + Di[3 * c + 1] * xa[3 * i + 1] + Di[3 * c + 2] * xa[3 * i + 2];
+  }
+  PetscCall(VecRestoreArray(y, &ya));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+void Multigrid::estimate_lambda_max(int l) {
+  // Power iteration on D^{-1} A from a deterministic start vector.
+  auto& d = *data_[l];
+  Vec v = d.tmp, w = d.r;
+  PetscInt lo, n;
+  check_petsc(VecGetOwnershipRange(v, &lo, nullptr), "range");
+  check_petsc(VecGetLocalSize(v, &n), "size");
+  PetscScalar* a;
+  check_petsc(VecGetArray(v, &a), "array");
+  for (PetscInt i = 0; i < n; ++i) a[i] = 1.0 + 0.5 * std::sin(0.7 * double(lo + i));
+  check_petsc(VecRestoreArray(v, &a), "array");
+  double lambda = 0.0;
+  for (int it = 0; it < 20; ++it) {
+    PetscReal nv;
+    check_petsc(VecNormalize(v, &nv), "normalize");
+    check_petsc(apply_level_impl(l, v, w), "apply");
+    check_petsc(block_jacobi(d.diag_inv, w, v), "jacobi");
+    PetscReal nw;
+    check_petsc(VecNorm(v, NORM_2, &nw), "norm");
+    lambda = nw;
+  }
+  d.lambda_max = lambda;
+}
+
+PetscErrorCode Multigrid::chebyshev(int l, Vec b, Vec x, int degree) {
+  PetscFunctionBeginUser;
+  // Chebyshev iteration on D^{-1} A over [0.2, 1.1] * lambda_max: damps the upper part
+  // of the spectrum, which the coarse grid cannot represent.
+  auto& d = *data_[l];
+  const double hi = 1.1 * d.lambda_max, lo = 0.2 * d.lambda_max;
+  const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
+  double rho_old = 1.0 / sigma;
+  Vec r = d.r, z = d.tmp, dir;
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(apply_level_impl(l, x, r));
+  PetscCall(VecAYPX(r, -1.0, b));
+  PetscCall(block_jacobi(d.diag_inv, r, z));
+  PetscCall(VecAXPBY(dir, 1.0 / theta, 0.0, z));
+  for (int i = 0; i < degree; ++i) {
+    PetscCall(VecAXPY(x, 1.0, dir));
+    if (i + 1 == degree) break;
+    PetscCall(apply_level_impl(l, x, r));
+    PetscCall(VecAYPX(r, -1.0, b));
+    PetscCall(block_jacobi(d.diag_inv, r, z));
+    const double rho = 1.0 / (2.0 * sigma - rho_old);
+    PetscCall(VecAXPBY(dir, 2.0 * rho / delta, rho * rho_old, z));
+    rho_old = rho;
+  }
+  PetscCall(VecDestroy(&dir));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::smooth(int l, Vec b, Vec x, int sweeps, bool reverse) {
+  PetscFunctionBeginUser;
+  if (sweeps == 0) PetscFunctionReturn(0);
+  PetscCall(PetscLogEventBegin(ev_smooth_, 0, 0, 0, 0));
+  if (opt_.smoother == Smoother::chebyshev) {
+    PetscCall(chebyshev(l, b, x, sweeps));
+  } else {
+    for (int s = 0; s < sweeps; ++s) PetscCall(gauss_seidel(l, b, x, reverse));
+  }
+  PetscCall(PetscLogEventEnd(ev_smooth_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+void Multigrid::build_coarsest() {
+  const int l = num_levels() - 1;
+  const auto& lev = levels_[l];
+  auto& d = *data_[l];
+  MatDestroy(&coarse_matrix_);
+  check_petsc(assembly::create_matrix(comm_, lev.copies, lev.partition, lev.layout, &coarse_matrix_), "create_matrix");
+  double A[576];
+  PetscInt idx[8];
+  for (std::size_t e = 0; e < lev.layout.cells.size(); ++e) {
+    const double* Ae;
+    if (l == 0) {
+      assembly::cell_operator(*fine_cells_, e, weights_, A);
+      double m[24];
+      gather24(d.mask_local.data(), lev.layout.cell_corners[e], m);
+      for (int r = 0; r < 24; ++r)
+        for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
+      Ae = A;
+    } else {
+      Ae = &d.cell_matrix[576 * e];
+    }
+    for (int q = 0; q < 8; ++q) idx[q] = lev.layout.global_block[lev.layout.copies[lev.layout.cell_corners[e][q]]];
+    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, Ae, ADD_VALUES), "MatSetValuesBlocked");
+  }
+  PetscInt lo;
+  check_petsc(VecGetOwnershipRange(d.mask, &lo, nullptr), "range");
+  const PetscScalar* m;
+  PetscInt n;
+  check_petsc(VecGetLocalSize(d.mask, &n), "size");
+  check_petsc(VecGetArrayRead(d.mask, &m), "array");
+  for (PetscInt i = 0; i < n; ++i)
+    if (m[i] == 0.0) check_petsc(MatSetValue(coarse_matrix_, lo + i, lo + i, 1.0, ADD_VALUES), "MatSetValue");
+  check_petsc(VecRestoreArrayRead(d.mask, &m), "array");
+  check_petsc(MatAssemblyBegin(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
+  check_petsc(MatAssemblyEnd(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
+  if (!coarse_ksp_) {
+    check_petsc(KSPCreate(comm_, &coarse_ksp_), "KSPCreate");
+    check_petsc(KSPSetOptionsPrefix(coarse_ksp_, "gmg_coarse_"), "prefix");
+    check_petsc(KSPSetType(coarse_ksp_, KSPPREONLY), "KSPSetType");
+    PC pc;
+    check_petsc(KSPGetPC(coarse_ksp_, &pc), "KSPGetPC");
+    check_petsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
+    check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "solver type");
+    check_petsc(KSPSetFromOptions(coarse_ksp_), "KSPSetFromOptions");
+  }
+  check_petsc(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_), "KSPSetOperators");
+  check_petsc(KSPSetUp(coarse_ksp_), "KSPSetUp");
+}
+
+PetscErrorCode Multigrid::vcycle_level(int l) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  if (l == num_levels() - 1) {
+    PetscCall(KSPSolve(coarse_ksp_, d.b, d.x));
+    PetscFunctionReturn(0);
+  }
+  auto& c = *data_[l + 1];
+  PetscCall(VecSet(d.x, 0.0));
+  PetscCall(smooth(l, d.b, d.x, opt_.presmooth, false));
+  PetscCall(apply_level_impl(l, d.x, d.r));
+  PetscCall(VecAYPX(d.r, -1.0, d.b));
+  PetscCall(VecPointwiseMult(d.r, d.r, d.mask));
+  PetscCall(MatMultTranspose(d.P, d.r, c.b));
+  PetscCall(vcycle_level(l + 1));
+  PetscCall(MatMult(d.P, c.x, d.tmp));
+  PetscCall(VecPointwiseMult(d.tmp, d.tmp, d.mask));
+  PetscCall(VecAXPY(d.x, 1.0, d.tmp));
+  PetscCall(smooth(l, d.b, d.x, opt_.postsmooth, true));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::vcycle(Vec b, Vec x) {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
+  PetscCall(VecCopy(b, data_[0]->b));
+  PetscCall(vcycle_level(0));
+  PetscCall(VecCopy(data_[0]->x, x));
+  PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::attach(PC pc) {
+  PetscFunctionBeginUser;
+  PetscCall(PCSetType(pc, PCSHELL));
+  PetscCall(PCShellSetContext(pc, this));
+  PetscCall(PCShellSetApply(pc, pc_apply));
+  PetscCall(PCShellSetView(pc, pc_view));
+  PetscCall(PCShellSetName(pc, "hexcut geometric multigrid (V-cycle)"));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::view(PetscViewer viewer) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "hexcut gmg: %d levels, hierarchy %s, smoother %s V(%d,%d)%s\n",
+                                   num_levels(),
+                                   opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
+                                   opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
+                                   opt_.presmooth, opt_.postsmooth, opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  level      cells  shared-pos      DOFs   nnz-equiv   stored MiB\n"));
+  for (int l = 0; l < num_levels(); ++l) {
+    const auto& lev = levels_[l];
+    // Cells that share their position with another cell (components of one block).
+    std::set<std::int64_t> seen, dup;
+    for (const auto& p : lev.graph.ijk) {
+      const auto key = lev.graph.spec.cell_index(p[0], p[1], p[2]);
+      if (!seen.insert(key).second) dup.insert(key);
+    }
+    std::int64_t shared = 0;
+    for (const auto& p : lev.graph.ijk) shared += dup.count(lev.graph.spec.cell_index(p[0], p[1], p[2]));
+    // Nonzeros an assembled matrix of this level would have: 9 per coupled copy pair.
+    std::vector<std::vector<std::int32_t>> nb(lev.copies.num_copies);
+    for (const auto& corners : lev.copies.cell_corners)
+      for (auto a : corners)
+        for (auto b : corners) nb[a].push_back(b);
+    std::int64_t pairs = 0;
+    for (auto& v : nb) {
+      std::sort(v.begin(), v.end());
+      pairs += std::unique(v.begin(), v.end()) - v.begin();
+    }
+    // Stored operator numbers summed over ranks: level 0 keeps lambda, mu, rho and R
+    // (12 per cell), coarse levels a dense 24x24 block per cell, plus 9 per copy for
+    // the inverted diagonal blocks.
+    const double per_cell = l == 0 ? 12.0 : 576.0;
+    const double mib = (per_cell * lev.graph.num_cells() + 9.0 * lev.copies.num_copies) * 8.0 / (1024.0 * 1024.0);
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  %5d %10d %11lld %9d %11lld %12.2f%s\n", l, int(lev.graph.num_cells()),
+                                     (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs), mib,
+                                     l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)" : ""));
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hexcut::multigrid

@@ -1,0 +1,110 @@
+// hexcut's matrix-free geometric multigrid (design.md §5), as a PETSc PCSHELL.
+//
+// Level 0 is the simulation's own discretization, applied matrix-free from per-cell
+// lambda, mu, rho and rotation (nothing 24x24 is stored per fine cell). Coarse levels
+// come from hierarchy::build_hierarchy (components of 2x2x2 blocks) and store one dense
+// Galerkin 24x24 block per coarse cell, A_C = sum_c W_c^T A_c W_c. Transfer is trilinear
+// (P, a PETSc MAIJ matrix; restriction = P^T), with the rows of prescribed fine DOFs
+// zeroed so the hierarchy sees the constrained operator. Smoothers: 8-colour point-block
+// Gauss-Seidel (colours by lattice parity, reversed after the coarse correction, so the
+// V-cycle is symmetric) or Chebyshev on point-block Jacobi. The coarsest level is
+// assembled and factored (Cholesky, MUMPS by default; options prefix -gmg_coarse_).
+//
+// Options (PETSc options database):
+//   -gmg_levels N            number of levels (default: automatic)
+//   -gmg_coarse_dofs N       automatic depth: stop at <= N DOFs (default 3000)
+//   -gmg_hierarchy components|naive   coarsening (default components)
+//   -gmg_smoother gs|chebyshev        (default gs)
+//   -gmg_presmooth N, -gmg_postsmooth N   sweeps (Chebyshev: degree) (default 1, 1)
+//   -gmg_omega W             Gauss-Seidel relaxation weight (default 1)
+//   -gmg_view                print the hierarchy after set-up
+#pragma once
+
+#include <petscksp.h>
+
+#include <memory>
+#include <vector>
+
+#include "assembly/operator.hpp"
+#include "hierarchy/hierarchy.hpp"
+#include "lattice/lattice.hpp"
+
+namespace hexcut::multigrid {
+
+enum class Smoother { gauss_seidel, chebyshev };
+
+struct Options {
+  hierarchy::HierarchyOptions hierarchy;
+  Smoother smoother = Smoother::gauss_seidel;
+  int presmooth = 1;
+  int postsmooth = 1;
+  double omega = 1.0;
+  bool view = false;
+};
+
+/// Reads the -gmg_* options. Throws InputError on invalid values.
+Options read_options();
+
+class Multigrid {
+ public:
+  /// Builds the hierarchy for the model's lattice and distribution. `fine_dm` is the
+  /// simulation's DM (level 0 vectors).
+  Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
+            const topology::Partition& partition, DM fine_dm, const Options& options);
+  ~Multigrid();
+  Multigrid(const Multigrid&) = delete;
+  Multigrid& operator=(const Multigrid&) = delete;
+
+  /// (Re)builds every level's operator from the fine cell data and weights, with the
+  /// given prescribed (owned, global) DOFs as identity rows. Call after each change of
+  /// rotations or weights (every step of a corotational run).
+  void update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
+              const std::vector<PetscInt>& constrained_rows);
+
+  /// One V-cycle: x = M^{-1} b (x is overwritten).
+  PetscErrorCode vcycle(Vec b, Vec x);
+  /// y = A x with the constrained fine operator, matrix-free.
+  PetscErrorCode apply_fine(Vec x, Vec y);
+  /// A MATSHELL of the constrained fine operator (owned by the Multigrid).
+  Mat fine_operator() const { return shell_; }
+  /// Makes `pc` a PCSHELL running one V-cycle per application.
+  PetscErrorCode attach(PC pc);
+  /// Prints levels, cells, DOFs, stored numbers and memory (-gmg_view).
+  PetscErrorCode view(PetscViewer viewer) const;
+
+  int num_levels() const { return int(levels_.size()); }
+  const hierarchy::Level& level(int l) const { return levels_[l]; }
+  /// Level l's operator applied to a level-l global vector (for tests).
+  PetscErrorCode apply_level(int l, Vec x, Vec y);
+  /// Dense 24x24 Galerkin blocks of level l >= 1 (local cells, for tests).
+  const std::vector<double>& cell_matrices(int l) const;
+  /// Interpolation from level l+1 to l (global, 3 DOFs per copy, Dirichlet rows zeroed).
+  Mat interpolation(int l) const;
+  /// Global vector of level l.
+  PetscErrorCode create_vector(int l, Vec* v) const;
+
+ private:
+  struct LevelData;
+  void apply_local(int l, const double* x_local, double* y_local) const;
+  PetscErrorCode apply_level_impl(int l, Vec x, Vec y);
+  PetscErrorCode smooth(int l, Vec b, Vec x, int sweeps, bool reverse);
+  PetscErrorCode gauss_seidel(int l, Vec b, Vec x, bool reverse);
+  PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
+  PetscErrorCode vcycle_level(int l);
+  void build_diagonal(int l);
+  void estimate_lambda_max(int l);
+  void build_coarsest();
+
+  MPI_Comm comm_;
+  Options opt_;
+  std::vector<hierarchy::Level> levels_;
+  std::vector<std::unique_ptr<LevelData>> data_;
+  const assembly::CellData* fine_cells_ = nullptr;
+  assembly::OperatorWeights weights_;
+  Mat shell_ = nullptr;
+  KSP coarse_ksp_ = nullptr;
+  Mat coarse_matrix_ = nullptr;
+  PetscLogEvent ev_setup_ = 0, ev_apply_ = 0, ev_smooth_ = 0;
+};
+
+}  // namespace hexcut::multigrid
