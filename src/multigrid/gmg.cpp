@@ -210,6 +210,7 @@ Multigrid::~Multigrid() {
 
 const std::vector<double>& Multigrid::cell_matrices(int l) const { return data_[l]->cell_matrix; }
 Mat Multigrid::interpolation(int l) const { return data_[l]->P; }
+Vec Multigrid::mask(int l) const { return data_[l]->mask; }
 PetscErrorCode Multigrid::create_vector(int l, Vec* v) const { return DMCreateGlobalVector(data_[l]->dm, v); }
 
 void Multigrid::update(const assembly::CellData& cells, const assembly::OperatorWeights& w,

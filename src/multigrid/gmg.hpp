@@ -78,8 +78,12 @@ class Multigrid {
   PetscErrorCode apply_level(int l, Vec x, Vec y);
   /// Dense 24x24 Galerkin blocks of level l >= 1 (local cells, for tests).
   const std::vector<double>& cell_matrices(int l) const;
-  /// Interpolation from level l+1 to l (global, 3 DOFs per copy, Dirichlet rows zeroed).
+  /// Interpolation from level l+1 to l (global, 3 DOFs per copy). The V-cycle uses
+  /// diag(mask(l)) P: rows of prescribed (or dead) DOFs of level l are zeroed.
   Mat interpolation(int l) const;
+  /// Level l's DOF mask: 1 free, 0 prescribed (level 0) or dead (no free fine DOF
+  /// reaches it; an identity row on coarse levels).
+  Vec mask(int l) const;
   /// Global vector of level l.
   PetscErrorCode create_vector(int l, Vec* v) const;
 

@@ -27,9 +27,11 @@ struct Job {
   std::unique_ptr<analysis::Simulation> sim;
   analysis::State state;
 
-  Job(MPI_Comm comm, const std::string& yaml, int superblock = 8) {
+  /// `options`: PETSc options for this job (e.g. "-gmg_levels 3"), set after clearing.
+  Job(MPI_Comm comm, const std::string& yaml, int superblock = 8, const char* options = nullptr) {
     deck = deck::parse_deck(yaml, "test.yaml");
     check_petsc(PetscOptionsClear(nullptr), "PetscOptionsClear");
+    if (options) check_petsc(PetscOptionsInsertString(nullptr, options), "PetscOptionsInsertString");
     check_petsc(solve::set_default_options(deck.solver), "set_default_options");
     check_petsc(analysis::build_model(comm, deck, superblock, &model), "build_model");
     sim = std::make_unique<analysis::Simulation>(comm, model, deck);
