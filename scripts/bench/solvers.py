@@ -63,7 +63,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--sizes", default="50k 400k 1.5M")
     ap.add_argument("--ranks", default="1 2")
-    ap.add_argument("--solvers", default="cg-jacobi hypre gamg direct")
+    ap.add_argument("--solvers", default="gmg cg-jacobi hypre gamg direct")
     ap.add_argument("--timeout", type=int, default=900)
     ap.add_argument("--csv", default=os.path.join(ROOT, "bench-results", "solvers.csv"))
     a = ap.parse_args()

@@ -1,6 +1,7 @@
 #include "assembly/operator.hpp"
 
 #include <algorithm>
+#include <map>
 
 #include "element/element.hpp"
 
@@ -11,12 +12,22 @@ constexpr double kIdentity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
 }  // namespace
 
+const double* cell_stiffness(const CellData& cells, std::size_t e, double* buffer) {
+  if (cells.kind[e] >= 0) return cells.kind_stiffness[cells.kind[e]].data();
+  element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e], cells.mu[e], buffer);
+  return buffer;
+}
+
 void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A) {
   const auto& ref = element::reference_matrices();
-  double K[element::kElementMatrixSize];
-  element::cell_stiffness(ref, cells.h, cells.lambda[e], cells.mu[e], K);
-  element::rotate_element_matrix(&cells.rotation[9 * e], K, A);
-  for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] *= w.stiffness;
+  double buffer[element::kElementMatrixSize];
+  const double* K = cell_stiffness(cells, e, buffer);
+  if (cells.identity_rotations) {
+    for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] = w.stiffness * K[i];
+  } else {
+    element::rotate_element_matrix(&cells.rotation[9 * e], K, A);
+    for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] *= w.stiffness;
+  }
   if (w.mass != 0.0) {
     const double m = w.mass * cells.rho[e] * cells.h * cells.h * cells.h;
     if (w.lumped_mass) {
@@ -43,16 +54,30 @@ CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D)
     C.rho[e] = L.density[c];
     for (int d = 0; d < 3; ++d) C.origin[e][d] = L.spec.origin[d] + L.spec.h * L.ijk[c][d];
   }
+  // Shared stiffness per distinct (lambda, mu), up to a limit that keeps it small.
+  constexpr std::size_t kMaxKinds = 256;
+  std::map<std::pair<double, double>, std::int32_t> kinds;
+  C.kind.assign(n, -1);
+  for (std::size_t e = 0; e < n && kinds.size() <= kMaxKinds; ++e)
+    kinds.emplace(std::make_pair(C.lambda[e], C.mu[e]), std::int32_t(kinds.size()));
+  if (kinds.size() <= kMaxKinds) {
+    C.kind_stiffness.resize(kinds.size());
+    for (const auto& [lm, id] : kinds)
+      element::cell_stiffness(element::reference_matrices(), C.h, lm.first, lm.second, C.kind_stiffness[id].data());
+    for (std::size_t e = 0; e < n; ++e) C.kind[e] = kinds.at({C.lambda[e], C.mu[e]});
+  }
   set_identity_rotations(C);
   return C;
 }
 
 void set_identity_rotations(CellData& C) {
+  C.identity_rotations = true;
   C.rotation.resize(9 * C.lambda.size());
   for (std::size_t e = 0; e < C.lambda.size(); ++e) std::copy(kIdentity, kIdentity + 9, &C.rotation[9 * e]);
 }
 
 void update_rotations(const topology::DofLayout& D, const double* u_local, CellData& C) {
+  C.identity_rotations = false;
   C.rotation.resize(9 * D.cells.size());
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     double u24[24], F[9];
@@ -168,11 +193,10 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const C
   PetscCall(VecSet(bl, 0.0));
   PetscScalar* ba;
   PetscCall(VecGetArray(bl, &ba));
-  const auto& ref = element::reference_matrices();
-  double K[element::kElementMatrixSize], x24[24], be[24];
+  double buffer[element::kElementMatrixSize], x24[24], be[24];
   element::corner_positions(C.h, nullptr, x24);
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    element::cell_stiffness(ref, C.h, C.lambda[e], C.mu[e], K);
+    const double* K = cell_stiffness(C, e, buffer);
     element::corotational_rhs(&C.rotation[9 * e], K, x24, be);
     for (int q = 0; q < 8; ++q)
       for (int d = 0; d < 3; ++d) ba[3 * D.cell_corners[e][q] + d] += stiffness_weight * be[3 * q + d];

@@ -22,8 +22,18 @@ struct CellData {
   double h = 1.0;
   std::vector<double> lambda, mu, rho;        // per local cell
   std::vector<double> rotation;               // 9 per local cell, row-major
+  bool identity_rotations = true;             // every rotation is I (linear runs)
   std::vector<std::array<double, 3>> origin;  // per local cell: minimum corner [m]
+  // Cells with the same (lambda, mu) share one stiffness K = h (lambda K_lambda + mu
+  // K_mu): a few 24x24 matrices per material, never one per cell. kind = -1 when there
+  // are too many distinct values (per-cell E from an image): K is formed on the fly.
+  std::vector<std::int32_t> kind;             // per local cell
+  std::vector<std::array<double, 576>> kind_stiffness;
 };
+
+/// Unrotated stiffness of local cell e: the shared matrix of its kind, or formed into
+/// `buffer` (576 doubles) when it has none.
+const double* cell_stiffness(const CellData& cells, std::size_t e, double* buffer);
 
 CellData make_cell_data(const lattice::Lattice& lattice, const topology::DofLayout& layout);
 

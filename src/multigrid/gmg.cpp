@@ -22,6 +22,8 @@ struct Multigrid::LevelData {
   std::vector<double> cell_matrix;                           // 576 per local cell (l >= 1)
   std::vector<double> diag_inv;                              // 9 per owned copy
   std::vector<int> colour;                                   // per owned copy
+  std::vector<std::int32_t> colour_list[8];                  // owned copies of each colour
+  std::vector<char> cell_masked;                             // level 0: cell has a prescribed DOF
   std::vector<std::array<int, 3>> cell_pos;                  // per local cell
   std::vector<std::int32_t> local_cell;                      // canonical cell -> local index, -1
   Vec diag_g = nullptr, diag_l = nullptr;                    // 9 per copy
@@ -54,6 +56,17 @@ PetscErrorCode pc_view(PC pc, PetscViewer viewer) {
   PetscCall(PCShellGetContext(pc, &mg));
   PetscCall(mg->view(viewer));
   PetscFunctionReturn(0);
+}
+
+/// The kernel view of local fine cell e (K from its kind, or formed into buffer).
+FineCell fine_cell(const assembly::CellData& C, const assembly::OperatorWeights& w, std::size_t e, double* buffer) {
+  FineCell f;
+  f.K = assembly::cell_stiffness(C, e, buffer);
+  f.R = C.identity_rotations ? nullptr : &C.rotation[9 * e];
+  f.w_stiffness = w.stiffness;
+  f.mass = w.mass * C.rho[e] * C.h * C.h * C.h;
+  f.consistent_mass = w.lumped_mass ? nullptr : element::reference_matrices().mass;
+  return f;
 }
 
 void gather24(const double* v, const std::array<std::int32_t, 8>& corners, double* out) {
@@ -156,6 +169,7 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     for (std::int32_t i = 0; i < D.num_owned; ++i) {
       const auto& v = lev.copies.vertex[D.copies[i]];
       d->colour[i] = (v[0] & 1) + 2 * (v[1] & 1) + 4 * (v[2] & 1);
+      d->colour_list[d->colour[i]].push_back(i);
     }
     data_.push_back(std::move(d));
   }
@@ -237,6 +251,12 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
     check_petsc(VecGetArrayRead(d.xl, &ml), "array");
     d.mask_local.assign(ml, ml + n);
     check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
+    const auto& D = levels_[0].layout;
+    d.cell_masked.assign(D.cells.size(), 0);
+    for (std::size_t e = 0; e < D.cells.size(); ++e)
+      for (auto v : D.cell_corners[e])
+        for (int c = 0; c < 3; ++c)
+          if (d.mask_local[3 * v + c] == 0.0) d.cell_masked[e] = 1;
   }
   build_diagonal(0);
   // Galerkin coarse blocks, level by level.
@@ -340,15 +360,14 @@ void Multigrid::apply_local(int l, const double* x, double* y) const {
   double xe[24], ye[24];
   if (l == 0) {
     const auto& C = *fine_cells_;
-    const auto& ref = element::reference_matrices();
     const auto& m = d.mask_local;
+    double buffer[576];
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
       const auto& corners = D.cell_corners[e];
       for (int q = 0; q < 8; ++q)
         for (int k = 0; k < 3; ++k) xe[3 * q + k] = x[3 * corners[q] + k] * m[3 * corners[q] + k];
       std::fill(ye, ye + 24, 0.0);
-      fine_cell_apply_add(ref, C.h, C.lambda[e], C.mu[e], C.rho[e], &C.rotation[9 * e], weights_.stiffness,
-                          weights_.mass, weights_.lumped_mass, xe, ye);
+      fine_cell_apply_add(fine_cell(C, weights_, e, buffer), xe, ye);
       for (int q = 0; q < 8; ++q)
         for (int k = 0; k < 3; ++k) y[3 * corners[q] + k] += ye[3 * q + k] * m[3 * corners[q] + k];
     }
@@ -401,49 +420,67 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& D = levels_[l].layout;
-  const auto& ref = element::reference_matrices();
-  PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
-  PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+  // On one rank the local and global numberings coincide (no ghosts): sweep in place.
+  // In parallel each colour needs the ghosts of x before and the sum of the residual
+  // contributions over ranks after.
+  const bool serial = D.num_ranks == 1;
+  double buffer[576];
+  if (!serial) {
+    PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
+    PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+  }
   for (int kk = 0; kk < 8; ++kk) {
     const int k = reverse ? 7 - kk : kk;
     // A x at the copies of colour k, from the rank's cells: each cell has exactly one
     // corner of colour k, so a colour costs 1/8 of an operator application.
-    PetscCall(VecSet(d.yl, 0.0));
     const PetscScalar* xa;
     PetscScalar* ya;
-    PetscCall(VecGetArrayRead(d.xl, &xa));
+    PetscCall(VecGetArrayRead(serial ? x : d.xl, &xa));
     PetscCall(VecGetArray(d.yl, &ya));
+    if (serial) {
+      for (auto i : d.colour_list[k])
+        for (int c = 0; c < 3; ++c) ya[3 * i + c] = 0.0;
+    } else {
+      std::fill(ya, ya + 3 * D.num_local(), 0.0);
+    }
     double xe[24], y3[3];
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
       const auto& corners = D.cell_corners[e];
       const int q = corner_of_colour(d.cell_pos[e].data(), k);
       if (l == 0) {
         const auto& C = *fine_cells_;
-        const auto& m = d.mask_local;
-        for (int p = 0; p < 8; ++p)
-          for (int c = 0; c < 3; ++c) xe[3 * p + c] = xa[3 * corners[p] + c] * m[3 * corners[p] + c];
-        fine_row_block(ref, C.h, C.lambda[e], C.mu[e], C.rho[e], &C.rotation[9 * e], weights_.stiffness,
-                       weights_.mass, weights_.lumped_mass, q, xe, y3);
-        for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c] * m[3 * corners[q] + c];
+        gather24(xa, corners, xe);
+        if (d.cell_masked[e]) {
+          const auto& m = d.mask_local;
+          for (int p = 0; p < 8; ++p)
+            for (int c = 0; c < 3; ++c) xe[3 * p + c] *= m[3 * corners[p] + c];
+          fine_row_block(fine_cell(C, weights_, e, buffer), q, xe, y3);
+          for (int c = 0; c < 3; ++c) y3[c] *= m[3 * corners[q] + c];
+        } else {
+          fine_row_block(fine_cell(C, weights_, e, buffer), q, xe, y3);
+        }
       } else {
         gather24(xa, corners, xe);
         dense_row_block(&d.cell_matrix[576 * e], q, xe, y3);
-        for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c];
       }
+      for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c];
     }
-    PetscCall(VecRestoreArrayRead(d.xl, &xa));
+    PetscCall(VecRestoreArrayRead(serial ? x : d.xl, &xa));
     PetscCall(VecRestoreArray(d.yl, &ya));
-    PetscCall(VecSet(d.r, 0.0));
-    PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, d.r));
-    PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, d.r));
+    Vec r = d.yl;  // serial: the residual contributions are already complete
+    if (!serial) {
+      PetscCall(VecSet(d.r, 0.0));
+      PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, d.r));
+      PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, d.r));
+      r = d.r;
+    }
     const PetscScalar *ba, *ra, *ma;
     PetscScalar* xg;
     PetscCall(VecGetArrayRead(b, &ba));
-    PetscCall(VecGetArrayRead(d.r, &ra));
+    PetscCall(VecGetArrayRead(r, &ra));
     PetscCall(VecGetArrayRead(d.mask, &ma));
     PetscCall(VecGetArray(x, &xg));
-    for (std::int32_t i = 0; i < D.num_owned; ++i) {
-      if (d.colour[i] != k) continue;
+    for (auto i : d.colour_list[k]) {
       double res[3];
       for (int c = 0; c < 3; ++c) res[c] = ba[3 * i + c] - ra[3 * i + c] - (ma[3 * i + c] == 0.0 ? xg[3 * i + c] : 0.0);
       const double* Di = &d.diag_inv[9 * i];
@@ -452,10 +489,12 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
     }
     PetscCall(VecRestoreArray(x, &xg));
     PetscCall(VecRestoreArrayRead(d.mask, &ma));
-    PetscCall(VecRestoreArrayRead(d.r, &ra));
+    PetscCall(VecRestoreArrayRead(r, &ra));
     PetscCall(VecRestoreArrayRead(b, &ba));
-    PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
-    PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+    if (!serial) {
+      PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
+      PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+    }
   }
   PetscFunctionReturn(0);
 }

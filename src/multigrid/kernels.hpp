@@ -64,34 +64,47 @@ HEXCUT_HD inline void dense_apply_add(const double* A, const double* x24, double
   }
 }
 
-/// Rows of corner q of a fine cell's operator w_K R^ K R^T + w_M M applied to x24, with
-/// K = h (lambda K_lambda + mu K_mu), M = rho h^3 (consistent M1 or lumped 1/8).
-HEXCUT_HD inline void fine_row_block(const element::ReferenceMatrices& ref, double h, double lambda,
-                                     double mu, double rho, const double R[9], double w_stiffness,
-                                     double w_mass, bool lumped, int q, const double* x24,
-                                     double* y3) {
-  double xl[24];  // R^T x, corner by corner
-  for (int p = 0; p < 8; ++p)
-    for (int i = 0; i < 3; ++i)
-      xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
+/// What a fine cell's operator w_K R^ K R^T + w_M M needs: its unrotated stiffness K
+/// (24x24, shared per material), its rotation (nullptr = identity), and the mass
+/// weight m = w_M rho h^3 with the reference consistent mass (nullptr = lumped, m/8).
+struct FineCell {
+  const double* K;
+  const double* R;
+  double w_stiffness;
+  double mass;
+  const double* consistent_mass;
+};
+
+/// y3 = rows of corner q of the fine cell's operator times x24.
+HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24, double* y3) {
   double yl[3];
-  for (int e = 0; e < 3; ++e) {
-    double s = 0.0;
-    const int row = 24 * (3 * q + e);
-    for (int c = 0; c < 24; ++c) s += (lambda * ref.k_lambda[row + c] + mu * ref.k_mu[row + c]) * xl[c];
-    yl[e] = h * s;
+  if (c.R) {
+    const double* R = c.R;
+    double xl[24];  // R^T x, corner by corner
+    for (int p = 0; p < 8; ++p)
+      for (int i = 0; i < 3; ++i)
+        xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
+    for (int e = 0; e < 3; ++e) {
+      double s = 0.0;
+      for (int k = 0; k < 24; ++k) s += c.K[24 * (3 * q + e) + k] * xl[k];
+      yl[e] = s;
+    }
+    for (int i = 0; i < 3; ++i) y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
+  } else {
+    for (int e = 0; e < 3; ++e) {
+      double s = 0.0;
+      for (int k = 0; k < 24; ++k) s += c.K[24 * (3 * q + e) + k] * x24[k];
+      y3[e] = c.w_stiffness * s;
+    }
   }
-  for (int i = 0; i < 3; ++i)
-    y3[i] = w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
-  if (w_mass != 0.0) {
-    const double m = w_mass * rho * h * h * h;
-    if (lumped) {
-      for (int e = 0; e < 3; ++e) y3[e] += m * 0.125 * x24[3 * q + e];
+  if (c.mass != 0.0) {
+    if (!c.consistent_mass) {
+      for (int e = 0; e < 3; ++e) y3[e] += 0.125 * c.mass * x24[3 * q + e];
     } else {
       for (int e = 0; e < 3; ++e) {
         double s = 0.0;
-        for (int c = 0; c < 24; ++c) s += ref.mass[24 * (3 * q + e) + c] * x24[c];
-        y3[e] += m * s;
+        for (int k = 0; k < 24; ++k) s += c.consistent_mass[24 * (3 * q + e) + k] * x24[k];
+        y3[e] += c.mass * s;
       }
     }
   }
@@ -130,34 +143,39 @@ HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
 
 namespace hexcut::multigrid {
 
-/// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, K = h (lambda K_lambda + mu K_mu),
-/// without forming the 24x24 matrix: rotate x into the cell frame, apply the two
-/// reference matrices, rotate back.
-HEXCUT_HD inline void fine_cell_apply_add(const element::ReferenceMatrices& ref, double h, double lambda,
-                                          double mu, double rho, const double R[9], double w_stiffness,
-                                          double w_mass, bool lumped, const double* x24, double* y24) {
+/// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
+/// matrix: rotate x into the cell frame, apply K, rotate back.
+HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
   double xl[24], yl[24];
-  for (int p = 0; p < 8; ++p)
-    for (int i = 0; i < 3; ++i)
-      xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-  const double a = w_stiffness * h * lambda, b = w_stiffness * h * mu;
+  const double* xin = x24;
+  if (c.R) {
+    const double* R = c.R;
+    for (int p = 0; p < 8; ++p)
+      for (int i = 0; i < 3; ++i)
+        xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
+    xin = xl;
+  }
   for (int r = 0; r < 24; ++r) {
     double s = 0.0;
-    for (int c = 0; c < 24; ++c) s += (a * ref.k_lambda[24 * r + c] + b * ref.k_mu[24 * r + c]) * xl[c];
-    yl[r] = s;
+    for (int k = 0; k < 24; ++k) s += c.K[24 * r + k] * xin[k];
+    yl[r] = c.w_stiffness * s;
   }
-  for (int p = 0; p < 8; ++p)
-    for (int i = 0; i < 3; ++i)
-      y24[3 * p + i] += R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
-  if (w_mass != 0.0) {
-    const double m = w_mass * rho * h * h * h;
-    if (lumped) {
-      for (int r = 0; r < 24; ++r) y24[r] += 0.125 * m * x24[r];
+  if (c.R) {
+    const double* R = c.R;
+    for (int p = 0; p < 8; ++p)
+      for (int i = 0; i < 3; ++i)
+        y24[3 * p + i] += R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
+  } else {
+    for (int r = 0; r < 24; ++r) y24[r] += yl[r];
+  }
+  if (c.mass != 0.0) {
+    if (!c.consistent_mass) {
+      for (int r = 0; r < 24; ++r) y24[r] += 0.125 * c.mass * x24[r];
     } else {
       for (int r = 0; r < 24; ++r) {
         double s = 0.0;
-        for (int c = 0; c < 24; ++c) s += ref.mass[24 * r + c] * x24[c];
-        y24[r] += m * s;
+        for (int k = 0; k < 24; ++k) s += c.consistent_mass[24 * r + k] * x24[k];
+        y24[r] += c.mass * s;
       }
     }
   }
