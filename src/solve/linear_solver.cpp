@@ -16,6 +16,21 @@ PetscErrorCode set_if_unset(const char* name, const char* value) {
   PetscFunctionReturn(0);
 }
 
+struct History {
+  FILE* file = nullptr;
+  int solve = 0;
+  PetscLogDouble start = 0;
+};
+History g_history;  // one per process; hexcut runs one solver at a time
+
+PetscErrorCode history_monitor(KSP, PetscInt it, PetscReal rnorm, void*) {
+  PetscFunctionBeginUser;
+  PetscLogDouble now;
+  PetscCall(PetscTime(&now));
+  if (g_history.file) std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(it), now - g_history.start, double(rnorm));
+  PetscFunctionReturn(0);
+}
+
 }  // namespace
 
 PetscErrorCode set_default_options(const deck::Solver& s) {
@@ -101,6 +116,7 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* k
   PetscBool preonly = PETSC_FALSE;
   PetscCall(PetscObjectTypeCompare((PetscObject)*ksp, KSPPREONLY, &preonly));
   PetscCall(KSPSetInitialGuessNonzero(*ksp, preonly ? PETSC_FALSE : PETSC_TRUE));
+  PetscCall(attach_residual_history(*ksp));
   PetscFunctionReturn(0);
 }
 
@@ -120,6 +136,8 @@ SolveRecord solve(KSP ksp, Vec b, Vec x) {
   SolveRecord r;
   PetscLogDouble t0, t1, t2;
   check_petsc(PetscTime(&t0), "PetscTime");
+  g_history.start = t0;
+  ++g_history.solve;
   check_petsc(KSPSetUp(ksp), "KSPSetUp");
   check_petsc(PetscTime(&t1), "PetscTime");
   check_petsc(KSPSolve(ksp, b, x), "KSPSolve");
@@ -139,6 +157,10 @@ SolveRecord solve(KSP ksp, Vec b, Vec x) {
   check_petsc(VecNorm(res, NORM_2, &nr), "VecNorm");
   check_petsc(VecNorm(b, NORM_2, &nb), "VecNorm");
   check_petsc(VecDestroy(&res), "VecDestroy");
+  if (g_history.file) {  // the end point, also for direct solves that never monitor
+    std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(r.iterations), t2 - t0, double(nr));
+    std::fflush(g_history.file);
+  }
   r.residual_norm = nr;
   r.residual = nb > 0 ? nr / nb : nr;
   if (r.reason < 0)
@@ -146,6 +168,23 @@ SolveRecord solve(KSP ksp, Vec b, Vec x) {
                       std::to_string(r.iterations) + " iterations (relative residual " +
                       std::to_string(r.residual) + ")");
   return r;
+}
+
+PetscErrorCode attach_residual_history(KSP ksp) {
+  PetscFunctionBeginUser;
+  char path[PETSC_MAX_PATH_LEN];
+  PetscBool set = PETSC_FALSE;
+  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-hexcut_residual_history", path, sizeof path, &set));
+  if (!set) PetscFunctionReturn(0);
+  PetscMPIInt rank;
+  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)ksp), &rank));
+  if (rank == 0 && !g_history.file) {
+    g_history.file = std::fopen(path, "w");
+    PetscCheck(g_history.file, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot open %s", path);
+    std::fprintf(g_history.file, "# solve iteration seconds residual\n");
+  }
+  PetscCall(KSPMonitorSet(ksp, history_monitor, nullptr, nullptr));
+  PetscFunctionReturn(0);
 }
 
 std::string reason_string(KSPConvergedReason reason) { return KSPConvergedReasons[reason]; }

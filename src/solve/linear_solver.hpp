@@ -30,6 +30,11 @@ PetscErrorCode set_default_options(const deck::Solver& solver);
 /// reference positions, bs 3) give the rigid-body modes for hypre and GAMG.
 PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& solver, KSP* ksp);
 
+/// With -hexcut_residual_history FILE, appends "solve iteration seconds residual" per
+/// KSP iteration to FILE (rank 0): wall time since the start of the solve's set-up and
+/// the monitored residual norm. For plots of residual against time.
+PetscErrorCode attach_residual_history(KSP ksp);
+
 /// Sets the operator (re-used pattern) and the near-null space from coordinates.
 PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coordinates);
 
