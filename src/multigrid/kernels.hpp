@@ -46,24 +46,6 @@ HEXCUT_HD inline void galerkin_accumulate(const double* A_child, int octant, dou
       }
 }
 
-/// y3 = rows 3q..3q+2 of the dense 24x24 A times x24.
-HEXCUT_HD inline void dense_row_block(const double* A, int q, const double* x24, double* y3) {
-  for (int e = 0; e < 3; ++e) {
-    double s = 0.0;
-    for (int c = 0; c < 24; ++c) s += A[24 * (3 * q + e) + c] * x24[c];
-    y3[e] = s;
-  }
-}
-
-/// y24 += A x24 for a dense 24x24 A.
-HEXCUT_HD inline void dense_apply_add(const double* A, const double* x24, double* y24) {
-  for (int r = 0; r < 24; ++r) {
-    double s = 0.0;
-    for (int c = 0; c < 24; ++c) s += A[24 * r + c] * x24[c];
-    y24[r] += s;
-  }
-}
-
 /// What a fine cell's operator w_K R^ K R^T + w_M M needs: its unrotated stiffness K
 /// (24x24, shared per material), its rotation (nullptr = identity), and the mass
 /// weight m = w_M rho h^3 with the reference consistent mass (nullptr = lumped, m/8).
@@ -75,38 +57,93 @@ struct FineCell {
   const double* consistent_mass;
 };
 
+/// Three rows of a 24x24 row-major matrix times x24, with six independent partial sums
+/// (a single running sum per row would make the loop wait on add latency).
+HEXCUT_HD inline void three_rows(const double* K, const double* x24, double* y3) {
+  const double *k0 = K, *k1 = K + 24, *k2 = K + 48;
+  double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0;
+  for (int k = 0; k < 24; k += 2) {
+    a0 += k0[k] * x24[k];
+    a1 += k1[k] * x24[k];
+    a2 += k2[k] * x24[k];
+    b0 += k0[k + 1] * x24[k + 1];
+    b1 += k1[k + 1] * x24[k + 1];
+    b2 += k2[k + 1] * x24[k + 1];
+  }
+  y3[0] = a0 + b0;
+  y3[1] = a1 + b1;
+  y3[2] = a2 + b2;
+}
+
 /// y3 = rows of corner q of the fine cell's operator times x24.
 HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24, double* y3) {
-  double yl[3];
+  const double* Kq = c.K + 24 * 3 * q;
   if (c.R) {
     const double* R = c.R;
     double xl[24];  // R^T x, corner by corner
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    for (int e = 0; e < 3; ++e) {
-      double s = 0.0;
-      for (int k = 0; k < 24; ++k) s += c.K[24 * (3 * q + e) + k] * xl[k];
-      yl[e] = s;
-    }
+    double yl[3];
+    three_rows(Kq, xl, yl);
     for (int i = 0; i < 3; ++i) y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
   } else {
-    for (int e = 0; e < 3; ++e) {
-      double s = 0.0;
-      for (int k = 0; k < 24; ++k) s += c.K[24 * (3 * q + e) + k] * x24[k];
-      y3[e] = c.w_stiffness * s;
-    }
+    three_rows(Kq, x24, y3);
+    for (int e = 0; e < 3; ++e) y3[e] *= c.w_stiffness;
   }
   if (c.mass != 0.0) {
     if (!c.consistent_mass) {
       for (int e = 0; e < 3; ++e) y3[e] += 0.125 * c.mass * x24[3 * q + e];
     } else {
-      for (int e = 0; e < 3; ++e) {
-        double s = 0.0;
-        for (int k = 0; k < 24; ++k) s += c.consistent_mass[24 * (3 * q + e) + k] * x24[k];
-        y3[e] += c.mass * s;
-      }
+      double m3[3];
+      three_rows(c.consistent_mass + 24 * 3 * q, x24, m3);
+      for (int e = 0; e < 3; ++e) y3[e] += c.mass * m3[e];
     }
+  }
+}
+
+/// Packed storage of a symmetric 24x24 matrix: the upper triangle row by row, 300
+/// numbers instead of 576 (coarse Galerkin blocks are symmetric).
+constexpr int kPackedSize = 300;
+HEXCUT_HD inline int packed_index(int r, int c) {
+  if (r > c) {
+    const int t = r;
+    r = c;
+    c = t;
+  }
+  return r * 24 - (r * (r - 1)) / 2 + (c - r);
+}
+
+HEXCUT_HD inline void pack_symmetric(const double* A, double* P) {
+  for (int r = 0; r < 24; ++r)
+    for (int c = r; c < 24; ++c) P[packed_index(r, c)] = A[24 * r + c];
+}
+
+HEXCUT_HD inline void unpack_symmetric(const double* P, double* A) {
+  for (int r = 0; r < 24; ++r)
+    for (int c = 0; c < 24; ++c) A[24 * r + c] = P[packed_index(r, c)];
+}
+
+/// y3 = rows 3q..3q+2 of the packed symmetric matrix times x24.
+HEXCUT_HD inline void packed_row_block(const double* P, int q, const double* x24, double* y3) {
+  double rows[72];  // the three rows, unpacked
+  for (int e = 0; e < 3; ++e)
+    for (int c = 0; c < 24; ++c) rows[24 * e + c] = P[packed_index(3 * q + e, c)];
+  three_rows(rows, x24, y3);
+}
+
+/// y24 += P x24 for a packed symmetric matrix: each stored entry is used twice.
+HEXCUT_HD inline void packed_apply_add(const double* P, const double* x24, double* y24) {
+  int k = 0;
+  for (int r = 0; r < 24; ++r) {
+    y24[r] += P[k] * x24[r];
+    ++k;
+    double s = 0.0;
+    for (int c = r + 1; c < 24; ++c, ++k) {
+      s += P[k] * x24[c];
+      y24[c] += P[k] * x24[r];
+    }
+    y24[r] += s;
   }
 }
 
@@ -143,40 +180,39 @@ HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
 
 namespace hexcut::multigrid {
 
+/// y24 += S x24 for a symmetric 24x24 S, as a sum of rows scaled by x (row k of S is
+/// column k): 24 independent accumulators that the compiler vectorizes.
+HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const double* x24, double* y24) {
+  double acc[24] = {0};
+  for (int k = 0; k < 24; ++k) {
+    const double xk = x24[k];
+    const double* row = S + 24 * k;
+    for (int r = 0; r < 24; ++r) acc[r] += row[r] * xk;
+  }
+  for (int r = 0; r < 24; ++r) y24[r] += scale * acc[r];
+}
+
 /// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
-/// matrix: rotate x into the cell frame, apply K, rotate back.
+/// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
 HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
-  double xl[24], yl[24];
-  const double* xin = x24;
   if (c.R) {
     const double* R = c.R;
+    double xl[24], yl[24] = {0};
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    xin = xl;
-  }
-  for (int r = 0; r < 24; ++r) {
-    double s = 0.0;
-    for (int k = 0; k < 24; ++k) s += c.K[24 * r + k] * xin[k];
-    yl[r] = c.w_stiffness * s;
-  }
-  if (c.R) {
-    const double* R = c.R;
+    symmetric_apply_add(c.K, c.w_stiffness, xl, yl);
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         y24[3 * p + i] += R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
   } else {
-    for (int r = 0; r < 24; ++r) y24[r] += yl[r];
+    symmetric_apply_add(c.K, c.w_stiffness, x24, y24);
   }
   if (c.mass != 0.0) {
     if (!c.consistent_mass) {
       for (int r = 0; r < 24; ++r) y24[r] += 0.125 * c.mass * x24[r];
     } else {
-      for (int r = 0; r < 24; ++r) {
-        double s = 0.0;
-        for (int k = 0; k < 24; ++k) s += c.consistent_mass[24 * r + k] * x24[k];
-        y24[r] += c.mass * s;
-      }
+      symmetric_apply_add(c.consistent_mass, c.mass, x24, y24);
     }
   }
 }

@@ -217,6 +217,12 @@ TEST(Multigrid, CubeConvergenceIsIndependentOfResolution) {
   std::printf("GMG-CG iterations to 1e-8: 16^3 %d, 32^3 %d, 64^3 %d\n", int(i16), int(i32), int(i64));
   EXPECT_LE(i32, 15);
   EXPECT_LE(i64 - i16, 3);
+  // The Gauss-Seidel smoother, V(1,1), meets the same bounds.
+  const char* gs = "-gmg_smoother gs -gmg_presmooth 1 -gmg_postsmooth 1";
+  const PetscInt g16 = cube_iterations(16, gs), g32 = cube_iterations(32, gs);
+  std::printf("Gauss-Seidel V(1,1): 16^3 %d, 32^3 %d\n", int(g16), int(g32));
+  EXPECT_LE(g32, 15);
+  EXPECT_LE(g32 - g16, 3);
 }
 
 PetscInt static_iterations(const std::string& yaml, int superblock = 8) {

@@ -1,0 +1,64 @@
+"""Residual against wall time for every solver on one problem (the 400k-DOF cantilever
+of scripts/bench/solvers), one rank, from -hexcut_residual_history; writes a PNG.
+  /usr/bin/python3 scripts/bench/residual_vs_time.py [--n 24] [--out doc/residual_vs_time.png]"""
+import argparse
+import os
+import subprocess
+import tempfile
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+DECK = """lattice: {{h: {h}, dims: [{nx}, {n}, {n}]}}
+materials: {{steel: {{E: 200.0e9, nu: 0.3, rho: 7800}}}}
+geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1.0, 0.125, 0.125]}}}}}}]
+boundary:
+  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [1, 0, 0]}}}}}}]
+  traction:
+    - where: {{plane: {{point: [1.0, 0, 0], normal: [1, 0, 0]}}}}
+      value: [0, 0, -1.0e5]
+solver: {{type: {solver}, rtol: 1.0e-8, max_iterations: 100000}}
+output: {{directory: {out}, name: r, fields: [displacement]}}
+"""
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--n", type=int, default=24)
+    ap.add_argument("--solvers", nargs="+", default=["gmg", "gamg", "hypre", "cg-jacobi", "direct"])
+    ap.add_argument("--out", default=os.path.join(ROOT, "doc", "residual_vs_time.png"))
+    a = ap.parse_args()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    with tempfile.TemporaryDirectory() as work:
+        for solver in a.solvers:
+            deck = os.path.join(work, f"{solver}.yaml")
+            with open(deck, "w") as f:
+                f.write(DECK.format(h=0.125 / a.n, nx=8 * a.n, n=a.n, solver=solver, out=work))
+            hist = os.path.join(work, f"{solver}.txt")
+            subprocess.run([HEXCUT, deck, "-hexcut_residual_history", hist], env=ENV, check=True, capture_output=True)
+            rows = [list(map(float, line.split())) for line in open(hist) if not line.startswith("#")]
+            r0 = rows[0][3] if rows[0][3] > 0 else 1.0
+            t = [r[2] for r in rows]
+            r = [r[3] / r0 for r in rows]
+            if solver == "direct":  # one point at the end of the factorization + solve
+                ax.semilogy([0, t[-1]], [1, max(r[-1], 1e-16)], "k:", marker="o", label="direct (MUMPS)")
+            else:
+                ax.semilogy(t, r, label=solver)
+            print(f"{solver:>10}: {len(rows) - 1:>5} iterations, {t[-1]:8.2f} s to {r[-1]:.1e}")
+    ax.set_xlabel("wall time from the start of set-up [s]")
+    ax.set_ylabel("relative residual")
+    ax.set_title(f"Cantilever, {3 * (8 * a.n + 1) * (a.n + 1) ** 2} DOFs, 1 rank")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(a.out, dpi=120)
+    print(f"wrote {a.out}")
+
+
+if __name__ == "__main__":
+    main()
