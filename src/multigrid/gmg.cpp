@@ -29,8 +29,6 @@ struct Multigrid::LevelData {
   std::vector<std::array<double, 576>> own_stiffness;        // level 0: K of cells without a kind
   std::vector<std::array<int, 3>> cell_pos;                  // per local cell
   std::vector<std::int32_t> local_cell;                      // canonical cell -> local index, -1
-  Vec diag_g = nullptr, diag_l = nullptr;                    // 9 per copy
-  VecScatter diag_scatter = nullptr;
   Mat P = nullptr;  // interpolation from level l+1 (3 DOFs per copy)
   double lambda_max = 0.0;
 };
@@ -71,6 +69,22 @@ FineCell fine_cell(const assembly::CellData& C, const assembly::OperatorWeights&
   f.consistent_mass = w.lumped_mass ? nullptr : element::reference_matrices().mass;
   return f;
 }
+
+}  // namespace
+
+/// The mask of the local copies (owned + ghosts) from the global mask.
+void Multigrid::refresh_local_mask(LevelData& d) {
+  check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+  check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+  const PetscScalar* ml;
+  PetscInt n;
+  check_petsc(VecGetLocalSize(d.xl, &n), "size");
+  check_petsc(VecGetArrayRead(d.xl, &ml), "array");
+  d.mask_local.assign(ml, ml + n);
+  check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
+}
+
+namespace {
 
 void gather24(const double* v, const std::array<std::int32_t, 8>& corners, double* out) {
   for (int q = 0; q < 8; ++q)
@@ -160,8 +174,6 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     check_petsc(VecDuplicate(d->b, &d->mask), "vec");
     check_petsc(DMCreateLocalVector(d->dm, &d->xl), "vec");
     check_petsc(VecDuplicate(d->xl, &d->yl), "vec");
-    check_petsc(topology::create_ghost_scatter(comm, lev.layout, 9, &d->diag_g, &d->diag_l, &d->diag_scatter),
-                "ghost scatter");
     const auto& D = lev.layout;
     d->cell_pos.resize(D.cells.size());
     d->local_cell.assign(lev.graph.num_cells(), -1);
@@ -235,9 +247,6 @@ Multigrid::~Multigrid() {
     VecDestroy(&d->mask);
     VecDestroy(&d->xl);
     VecDestroy(&d->yl);
-    VecDestroy(&d->diag_g);
-    VecDestroy(&d->diag_l);
-    VecScatterDestroy(&d->diag_scatter);
     MatDestroy(&d->P);
     if (d->own_dm) DMDestroy(&d->dm);
   }
@@ -266,14 +275,7 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
     check_petsc(VecGetArray(d.mask, &m), "array");
     for (PetscInt row : constrained_rows) m[row - lo] = 0.0;
     check_petsc(VecRestoreArray(d.mask, &m), "array");
-    check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
-    check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
-    const PetscScalar* ml;
-    PetscInt n;
-    check_petsc(VecGetLocalSize(d.xl, &n), "size");
-    check_petsc(VecGetArrayRead(d.xl, &ml), "array");
-    d.mask_local.assign(ml, ml + n);
-    check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
+    refresh_local_mask(d);
     const auto& D = levels_[0].layout;
     d.cell_masked.assign(D.cells.size(), 0);
     for (std::size_t e = 0; e < D.cells.size(); ++e)
@@ -332,9 +334,14 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
 void Multigrid::build_diagonal(int l) {
   auto& d = *data_[l];
   const auto& D = levels_[l].layout;
-  check_petsc(VecSet(d.diag_l, 0.0), "VecSet");
+  // 3x3 diagonal blocks, 9 numbers per copy, summed over ranks through a temporary
+  // ghost exchange (kept only during set-up: it would be the largest array per DOF).
+  Vec diag_g, diag_l;
+  VecScatter diag_scatter;
+  check_petsc(topology::create_ghost_scatter(comm_, D, 9, &diag_g, &diag_l, &diag_scatter), "ghost scatter");
+  check_petsc(VecSet(diag_l, 0.0), "VecSet");
   PetscScalar* dl;
-  check_petsc(VecGetArray(d.diag_l, &dl), "array");
+  check_petsc(VecGetArray(diag_l, &dl), "array");
   double A[576];
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     if (l == 0) assembly::cell_operator(*fine_cells_, e, weights_, A);
@@ -350,12 +357,12 @@ void Multigrid::build_diagonal(int l) {
         }
     }
   }
-  check_petsc(VecRestoreArray(d.diag_l, &dl), "array");
-  check_petsc(VecSet(d.diag_g, 0.0), "VecSet");
-  check_petsc(VecScatterBegin(d.diag_scatter, d.diag_l, d.diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
-  check_petsc(VecScatterEnd(d.diag_scatter, d.diag_l, d.diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  check_petsc(VecRestoreArray(diag_l, &dl), "array");
+  check_petsc(VecSet(diag_g, 0.0), "VecSet");
+  check_petsc(VecScatterBegin(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  check_petsc(VecScatterEnd(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
   const PetscScalar* dg;
-  check_petsc(VecGetArrayRead(d.diag_g, &dg), "array");
+  check_petsc(VecGetArrayRead(diag_g, &dg), "array");
   PetscScalar* m;
   check_petsc(VecGetArray(d.mask, &m), "array");
   d.diag_inv.assign(9 * std::size_t(D.num_owned), 0.0);
@@ -374,17 +381,11 @@ void Multigrid::build_diagonal(int l) {
       throw SolverError("gmg: singular 3x3 diagonal block on level " + std::to_string(l));
   }
   check_petsc(VecRestoreArray(d.mask, &m), "array");
-  check_petsc(VecRestoreArrayRead(d.diag_g, &dg), "array");
-  if (l > 0) {
-    check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
-    check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
-    const PetscScalar* ml;
-    PetscInt n;
-    check_petsc(VecGetLocalSize(d.xl, &n), "size");
-    check_petsc(VecGetArrayRead(d.xl, &ml), "array");
-    d.mask_local.assign(ml, ml + n);
-    check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
-  }
+  check_petsc(VecRestoreArrayRead(diag_g, &dg), "array");
+  check_petsc(VecDestroy(&diag_g), "VecDestroy");
+  check_petsc(VecDestroy(&diag_l), "VecDestroy");
+  check_petsc(VecScatterDestroy(&diag_scatter), "VecScatterDestroy");
+  if (l > 0) refresh_local_mask(d);
 }
 
 void Multigrid::apply_local(int l, const double* x, double* y) const {
@@ -722,7 +723,8 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
                                    opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
                                    opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
                                    opt_.presmooth, opt_.postsmooth, opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "  level      cells  shared-pos      DOFs   nnz-equiv   stored MiB\n"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  level      cells  shared-pos      DOFs   nnz-equiv     held MiB\n"));
+  double total_bytes = 0.0, fine_nnz = 0.0, fine_dofs = 1.0;
   for (int l = 0; l < num_levels(); ++l) {
     const auto& lev = levels_[l];
     // Cells that share their position with another cell (components of one block).
@@ -743,15 +745,27 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       std::sort(v.begin(), v.end());
       pairs += std::unique(v.begin(), v.end()) - v.begin();
     }
-    // Stored operator numbers summed over ranks: level 0 keeps lambda, mu, rho and R
-    // (12 per cell), coarse levels a packed symmetric 24x24 block per cell, plus 9 per copy for
-    // the inverted diagonal blocks.
-    const double per_cell = l == 0 ? 12.0 : double(kPackedSize);
-    const double mib = (per_cell * lev.graph.num_cells() + 9.0 * lev.copies.num_copies) * 8.0 / (1024.0 * 1024.0);
+    // What the multigrid holds for this level, summed over ranks: operator data (level 0:
+    // lambda, mu, rho, R and a kernel view per cell; coarse: a packed 24x24 block per
+    // cell), the inverted 3x3 diagonal blocks, the interpolation to this level from the
+    // next (MAIJ over copies: value + column index, 8 per copy at most) and the work
+    // vectors (5 global + 2 local, ghosts ignored).
+    const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
+    const double op = l == 0 ? cells * (13.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * 8.0;
+    const double transfer = l + 1 < num_levels() ? copies * 8.0 * 12.0 : 0.0;
+    const double bytes = op + copies * 9.0 * 8.0 + transfer + 7.0 * 3.0 * copies * 8.0;
+    total_bytes += bytes;
+    if (l == 0) fine_nnz = 9.0 * double(pairs), fine_dofs = 3.0 * copies;
     PetscCall(PetscViewerASCIIPrintf(viewer, "  %5d %10d %11lld %9d %11lld %12.2f%s\n", l, int(lev.graph.num_cells()),
-                                     (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs), mib,
+                                     (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs),
+                                     bytes / (1024.0 * 1024.0),
                                      l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)" : ""));
   }
+  PetscCall(PetscViewerASCIIPrintf(viewer,
+                                   "  total %.1f MiB = %.0f bytes/DOF; an assembled AIJ matrix of level 0 alone "
+                                   "(value + column index per nonzero) would be %.0f bytes/DOF (ratio %.2f)\n",
+                                   total_bytes / (1024.0 * 1024.0), total_bytes / fine_dofs, 12.0 * fine_nnz / fine_dofs,
+                                   total_bytes / (12.0 * fine_nnz)));
   PetscFunctionReturn(0);
 }
 

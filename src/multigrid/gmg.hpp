@@ -98,6 +98,7 @@ class Multigrid {
   PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
   PetscErrorCode vcycle_level(int l);
   void build_diagonal(int l);
+  void refresh_local_mask(LevelData& d);
   void estimate_lambda_max(int l);
   void build_coarsest();
 
