@@ -9,10 +9,7 @@ import subprocess
 import tempfile
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")
+from benchlib import ENV, HEXCUT, ROOT
 
 DECK = """lattice: {{bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: {h}}}
 materials: {{tissue: {{E: 1.0e5, nu: 0.3, rho: 1050}}}}

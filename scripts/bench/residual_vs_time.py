@@ -11,22 +11,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-DECK = """lattice: {{h: {h}, dims: [{nx}, {n}, {n}]}}
-materials: {{steel: {{E: 200.0e9, nu: 0.3, rho: 7800}}}}
-geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1.0, 0.125, 0.125]}}}}}}]
-boundary:
-  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [1, 0, 0]}}}}}}]
-  traction:
-    - where: {{plane: {{point: [1.0, 0, 0], normal: [1, 0, 0]}}}}
-      value: [0, 0, -1.0e5]
-solver: {{type: {solver}, rtol: 1.0e-8, max_iterations: 100000}}
-output: {{directory: {out}, name: r, fields: [displacement]}}
-"""
-
-
+from benchlib import ENV, HEXCUT, ROOT, cantilever  # noqa: E402
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=24)
@@ -38,7 +23,7 @@ def main():
         for solver in a.solvers:
             deck = os.path.join(work, f"{solver}.yaml")
             with open(deck, "w") as f:
-                f.write(DECK.format(h=0.125 / a.n, nx=8 * a.n, n=a.n, solver=solver, out=work))
+                f.write(cantilever(a.n, solver, work, name="r"))
             hist = os.path.join(work, f"{solver}.txt")
             subprocess.run([HEXCUT, deck, "-hexcut_residual_history", hist], env=ENV, check=True, capture_output=True)
             rows = [list(map(float, line.split())) for line in open(hist) if not line.startswith("#")]

@@ -10,34 +10,17 @@ import time
 
 import h5py
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1")
+from benchlib import ENV, HEXCUT, ROOT, cantilever
 
 # Bar of aspect 8:1:1 (length 1 m); cells across the section -> DOFs 3 (8n+1)(n+1)^2.
 SIZES = {"50k": 12, "400k": 24, "1.5M": 38}
-
-DECK = """\
-lattice: {{h: {h}, dims: [{nx}, {n}, {n}]}}
-materials: {{steel: {{E: 200.0e9, nu: 0.3, rho: 7800}}}}
-geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1.0, 0.125, 0.125]}}}}}}]
-boundary:
-  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [1, 0, 0]}}}}}}]
-  traction:
-    - where: {{plane: {{point: [1.0, 0, 0], normal: [1, 0, 0]}}}}
-      value: [0, 0, -1.0e5]
-solver: {{type: {solver}, rtol: 1.0e-8, max_iterations: 100000}}
-output: {{directory: {out}, name: bench, fields: [displacement]}}
-"""
-
 
 def run_case(size, ranks, solver, timeout, workdir):
     n = SIZES[size]
     deck = os.path.join(workdir, f"{size}-{ranks}-{solver}.yaml")
     out = os.path.join(workdir, f"{size}-{ranks}-{solver}")
     with open(deck, "w") as f:
-        f.write(DECK.format(h=0.125 / n, nx=8 * n, n=n, solver=solver, out=out))
+        f.write(cantilever(n, solver, out))
     cmd = (["mpiexec", "-n", str(ranks)] if ranks > 1 else []) + [HEXCUT, deck, "-log_view", f":{out}.log"]
     t0 = time.time()
     try:

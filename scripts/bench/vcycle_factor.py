@@ -7,9 +7,7 @@ import os
 import subprocess
 import tempfile
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+from benchlib import ENV, HEXCUT, ROOT
 
 DECK = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
 materials: {{m: {{E: 1.0, nu: 0.3, rho: 1}}}}

@@ -24,3 +24,23 @@ def write(directory, name, text):
 
 def tempdir():
     return tempfile.mkdtemp(prefix="hexcut-test-")
+
+
+class Checks:
+    """Collects named checks, prints 'ok'/'FAIL' per check and the closing tally line
+    that CI reads ('N passed, N failed')."""
+
+    def __init__(self):
+        self.passed = 0
+        self.failed = []
+
+    def __call__(self, ok, what):
+        print(("ok  " if ok else "FAIL"), what, flush=True)
+        if ok:
+            self.passed += 1
+        else:
+            self.failed.append(what)
+
+    def finish(self):
+        print(f"{self.passed} passed, {len(self.failed)} failed")
+        return 1 if self.failed else 0

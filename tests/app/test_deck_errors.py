@@ -5,7 +5,7 @@ import sys
 
 import h5py
 
-from cli_helpers import run, tempdir, write
+from cli_helpers import Checks, run, tempdir, write
 
 GOOD = """\
 lattice: {h: 0.1, dims: [10, 2, 2]}
@@ -48,24 +48,18 @@ CASES = [
 
 def main():
     d = tempdir()
-    failures = 0
+    check = Checks()
     rc, out, err = run(["--version"])
-    if rc != 0 or not out.startswith("hexcut "):
-        print("FAIL --version:", rc, out, err)
-        failures += 1
+    check(rc == 0 and out.startswith("hexcut "), f"--version: {out.strip()} {err.strip()}")
     good = write(d, "good.yaml", GOOD)
     rc, out, err = run(["--check", good])
-    if rc != 0 or "deck is valid" not in out:
-        print("FAIL valid deck rejected:", rc, out, err)
-        failures += 1
+    check(rc == 0 and "deck is valid" in out, f"a valid deck passes --check: {out.strip()} {err.strip()}")
     for name, old, new, line, message in CASES:
         assert old in GOOD, name
         path = write(d, "deck.yaml", GOOD.replace(old, new, 1))
         rc, out, err = run(["--check", path])
         expected_prefix = f"{path}:{line}: "
-        ok = rc == 2 and expected_prefix in err and message in err
-        print(("ok  " if ok else "FAIL"), f"{name}: exit {rc}: {err.strip()}")
-        failures += not ok
+        check(rc == 2 and expected_prefix in err and message in err, f"{name}: exit {rc}: {err.strip()}")
     # A solve that cannot converge: exit 3, the steps written before stay readable.
     dyn = GOOD.replace("solver: {type: direct}",
                        "analysis: {type: dynamic, dt: 1.0e-4, steps: 5}\n"
@@ -76,10 +70,8 @@ def main():
     ok = rc == 3 and "DIVERGED_ITS" in err
     with h5py.File(f"{d}/failing.h5", "r") as f:
         ok = ok and f["steps"].attrs["last_complete_step"] == 0 and f["steps/000000/displacement"].shape[1] == 3
-    print(("ok  " if ok else "FAIL"), f"non-converging solve: exit {rc}: {err.strip()}")
-    failures += not ok
-    print(f"{len(CASES) + 3 - failures} passed, {failures} failed")
-    return 1 if failures else 0
+    check(ok, f"non-converging solve: exit {rc}: {err.strip()}")
+    return check.finish()
 
 
 if __name__ == "__main__":

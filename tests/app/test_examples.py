@@ -8,19 +8,14 @@ import sys
 import h5py
 import numpy as np
 
-from cli_helpers import run, tempdir
+from cli_helpers import Checks, run, tempdir
 
 SOURCE = os.environ["HEXCUT_SOURCE_DIR"]
 
 
 def main():
     d = tempdir()
-    failures = []
-
-    def check(ok, what):
-        print(("ok  " if ok else "FAIL"), what)
-        if not ok:
-            failures.append(what)
+    check = Checks()
 
     decks = sorted(glob.glob(os.path.join(SOURCE, "input", "examples", "*.yaml")))
     check(len(decks) >= 3, f"{len(decks)} example decks")
@@ -55,8 +50,7 @@ def main():
         # so its stress is higher than the soft tissue's on average.
         ok = u[:, 1].min() < 0 and vm[mat == 1].mean() > vm[mat == 0].mean()
     check(ok, f"bunny runs on 2 ranks and sags under gravity: {err.strip()}")
-    print(f"{len(decks) + 4 - len(failures)} passed, {len(failures)} failed")
-    return 1 if failures else 0
+    return check.finish()
 
 
 if __name__ == "__main__":

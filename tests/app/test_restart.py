@@ -11,7 +11,7 @@ import sys
 import h5py
 import numpy as np
 
-from cli_helpers import ENV, HEXCUT, run, tempdir, write
+from cli_helpers import ENV, HEXCUT, Checks, run, tempdir, write
 
 DECK = """\
 lattice: {h: 0.05, dims: [20, 2, 2]}
@@ -42,12 +42,7 @@ def rel(a, b):
 
 def main():
     d = tempdir()
-    failures = []
-
-    def check(ok, what):
-        print(("ok  " if ok else "FAIL"), what)
-        if not ok:
-            failures.append(what)
+    check = Checks()
 
     full = write(d, "full.yaml", DECK.replace("OUT", f"{d}/full"))
     rc, out, err = run([full])
@@ -90,8 +85,7 @@ def main():
     diff3 = rel(u_ref, u3)
     check(rc1 == 0 and rc2 == 0 and "stopped after 20 steps" in out1 and diff3 < 1e-12,
           f"two chunks of 20 steps equal one run: {diff3:.2e}")
-    print(f"{7 - len(failures)} passed, {len(failures)} failed")
-    return 1 if failures else 0
+    return check.finish()
 
 
 if __name__ == "__main__":
