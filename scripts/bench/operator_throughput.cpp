@@ -1,5 +1,5 @@
 // Operator throughput on one core: DOF/s of y = A x for the same cantilever system,
-//  - assembled: PETSc MatMult on the AIJ matrix (block size 3, inodes), and as BAIJ;
+//  - assembled: PETSc MatMult on the AIJ matrix (block size 3, inodes);
 //  - matrix-free: hexcut's multigrid fine operator (per-material K, no 24x24 per cell),
 //    with identity rotations (linear) and with rotations (corotational).
 // Usage: hexcut_bench_operator [-n CELLS_ACROSS (24)] [-repeat R (20)]
@@ -55,13 +55,12 @@ int main(int argc, char** argv) {
     analysis::Model model;
     PetscCall(analysis::build_model(PETSC_COMM_WORLD, deck, 8, &model));
     const assembly::OperatorWeights w{1.0, 0.0, true};
-    Mat A, B;
+    Mat A;
     PetscCall(
         assembly::create_matrix(PETSC_COMM_WORLD, model.copies, model.partition, model.layout, &A));
     PetscCall(assembly::assemble_matrix(model.layout, model.cells, w, A));
     PetscCall(assembly::constrain_matrix(model.boundary.constraints, A));
-    PetscCall(MatConvert(A, MATBAIJ, MAT_INITIAL_MATRIX, &B));
-    multigrid::Options opt;
+      multigrid::Options opt;
     opt.hierarchy.levels = 1;
     multigrid::Multigrid mg(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition,
                             model.dm, opt);
@@ -75,8 +74,6 @@ int main(int argc, char** argv) {
     PetscCall(MatGetInfo(A, MAT_GLOBAL_SUM, &info));
     const double t_aij =
         median_seconds(int(repeat), [&] { check_petsc(MatMult(A, x, y), "MatMult"); });
-    const double t_baij =
-        median_seconds(int(repeat), [&] { check_petsc(MatMult(B, x, y), "MatMult"); });
     const double t_mf =
         median_seconds(int(repeat), [&] { check_petsc(mg.apply_fine(x, y), "apply"); });
     // Corotational: the same operator with (non-trivial) per-cell rotations.
@@ -103,8 +100,7 @@ int main(int argc, char** argv) {
                   1e-6 * double(N) / t, bytes);
     };
     row("assembled AIJ MatMult", t_aij, matrix_bytes);
-    row("assembled BAIJ(3) MatMult", t_baij, info.nz_used * (8.0 + 4.0 / 9.0) / double(N));
-    row("matrix-free, identity rotations", t_mf, mf_bytes);
+      row("matrix-free, identity rotations", t_mf, mf_bytes);
     row("matrix-free, with rotations", t_mf_rot, mf_rot_bytes);
     PetscCall(PetscPrintf(PETSC_COMM_WORLD,
                           "bytes/DOF: operator storage only (matrix values+indices; matrix-free: "
@@ -114,8 +110,7 @@ int main(int argc, char** argv) {
     PetscCall(VecDestroy(&x));
     PetscCall(VecDestroy(&y));
     PetscCall(MatDestroy(&A));
-    PetscCall(MatDestroy(&B));
-    PetscCall(analysis::destroy_model(&model));
+      PetscCall(analysis::destroy_model(&model));
   }
   PetscCall(PetscFinalize());
   return 0;
