@@ -38,7 +38,8 @@ Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
   check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
   if (uses_multigrid()) {
-    mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition, model.dm,
+    mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition, model.layout,
+                                                 model.dm,
                                                  multigrid::read_options());
     PC pc;
     check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");

@@ -18,6 +18,16 @@ const double* cell_stiffness(const CellData& cells, std::size_t e, double* buffe
   return buffer;
 }
 
+element::FineCell fine_cell_view(const CellData& C, std::size_t e, const OperatorWeights& w, double* buffer) {
+  element::FineCell f;
+  f.K = cell_stiffness(C, e, buffer);
+  f.R = C.identity_rotations ? nullptr : &C.rotation[9 * e];
+  f.w_stiffness = w.stiffness;
+  f.mass = w.mass * C.rho[e] * C.h * C.h * C.h;
+  f.consistent_mass = w.lumped_mass ? nullptr : element::reference_matrices().mass;
+  return f;
+}
+
 void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A) {
   const auto& ref = element::reference_matrices();
   double buffer[element::kElementMatrixSize];
@@ -144,12 +154,12 @@ PetscErrorCode assemble_matrix(const topology::DofLayout& D, const CellData& C,
 
 void apply_local(const topology::DofLayout& D, const CellData& C, const OperatorWeights& w,
                  const double* x, double* y) {
-  double Ae[element::kElementMatrixSize], xe[24], ye[24];
+  double buffer[element::kElementMatrixSize], xe[24], ye[24];
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    cell_operator(C, e, w, Ae);
     for (int q = 0; q < 8; ++q)
       for (int d = 0; d < 3; ++d) xe[3 * q + d] = x[3 * D.cell_corners[e][q] + d];
-    element::element_matvec(Ae, xe, ye);
+    std::fill(ye, ye + 24, 0.0);
+    element::fine_cell_apply_add(fine_cell_view(C, e, w, buffer), xe, ye);
     for (int q = 0; q < 8; ++q)
       for (int d = 0; d < 3; ++d) y[3 * D.cell_corners[e][q] + d] += ye[3 * q + d];
   }

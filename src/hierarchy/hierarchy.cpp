@@ -89,13 +89,14 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, st
 }
 
 std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
-                                   const topology::Partition& partition, int rank,
+                                   const topology::Partition& partition, const topology::DofLayout& layout,
                                    const HierarchyOptions& opt) {
+  const int rank = layout.rank;
   std::vector<Level> levels(1);
   levels[0].graph = fine;
   levels[0].copies = copies;
   levels[0].partition = partition;
-  levels[0].layout = topology::build_dof_layout(copies, partition, rank);
+  levels[0].layout = layout;
   const int max_levels = 1 + int(std::lround(std::log2(double(std::max(1, partition.superblock)))));
   const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
   while (int(levels.size()) < wanted) {

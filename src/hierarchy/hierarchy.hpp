@@ -42,12 +42,13 @@ struct HierarchyOptions {
   Coarsening mode = Coarsening::components;
 };
 
-/// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and layout.
+/// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and DOF
+/// layout (the layout of `rank`).
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, and never exceeds
 /// log2(partition.superblock) + 1 levels.
 std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
-                                   const topology::Partition& partition, int rank,
+                                   const topology::Partition& partition, const topology::DofLayout& layout,
                                    const HierarchyOptions& options);
 
 /// Interpolation weights from level l+1 to level l for the fine copies owned by `rank`

@@ -59,17 +59,6 @@ PetscErrorCode pc_view(PC pc, PetscViewer viewer) {
   PetscFunctionReturn(0);
 }
 
-/// The kernel view of local fine cell e (K from its kind, or formed into buffer).
-FineCell fine_cell(const assembly::CellData& C, const assembly::OperatorWeights& w, std::size_t e, double* buffer) {
-  FineCell f;
-  f.K = assembly::cell_stiffness(C, e, buffer);
-  f.R = C.identity_rotations ? nullptr : &C.rotation[9 * e];
-  f.w_stiffness = w.stiffness;
-  f.mass = w.mass * C.rho[e] * C.h * C.h * C.h;
-  f.consistent_mass = w.lumped_mass ? nullptr : element::reference_matrices().mass;
-  return f;
-}
-
 }  // namespace
 
 /// The mask of the local copies (owned + ghosts) from the global mask.
@@ -144,7 +133,8 @@ Options read_options() {
 }
 
 Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
-                     const topology::Partition& partition, DM fine_dm, const Options& options)
+                     const topology::Partition& partition, const topology::DofLayout& layout, DM fine_dm,
+                     const Options& options)
     : comm_(comm), opt_(options) {
   PetscClassId id;
   check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
@@ -153,9 +143,8 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
   check_petsc(PetscLogEventRegister("gmgSmooth", id, &ev_smooth_), "event");
   // Hierarchy construction counts as multigrid set-up (with update()'s operator build).
   PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
-  int rank;
-  MPI_Comm_rank(comm, &rank);
-  levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition, rank,
+  const int rank = layout.rank;
+  levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition, layout,
                                        options.hierarchy);
   const int L = int(levels_.size());
   for (int l = 0; l < L; ++l) {
@@ -291,7 +280,7 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
     own = 0;
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
       double* buffer = cells.kind[e] < 0 ? d.own_stiffness[own++].data() : nullptr;
-      d.fine[e] = fine_cell(cells, w, e, buffer);
+      d.fine[e] = assembly::fine_cell_view(cells, e, w, buffer);
     }
   }
   build_diagonal(0);
@@ -342,16 +331,21 @@ void Multigrid::build_diagonal(int l) {
   check_petsc(VecSet(diag_l, 0.0), "VecSet");
   PetscScalar* dl;
   check_petsc(VecGetArray(diag_l, &dl), "array");
-  double A[576];
+  double A[576], block[9];
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    if (l == 0) assembly::cell_operator(*fine_cells_, e, weights_, A);
-    else unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
-    const double* Ae = A;
+    // Level 0: only the 3x3 diagonal blocks of the fine operator, not the 24x24 matrix.
+    if (l > 0) unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
     for (int q = 0; q < 8; ++q) {
       const auto v = D.cell_corners[e][q];
+      if (l == 0) {
+        element::fine_diagonal_block(d.fine[e], q, block);
+      } else {
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) block[3 * i + j] = A[24 * (3 * q + i) + 3 * q + j];
+      }
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
-          double a = Ae[24 * (3 * q + i) + 3 * q + j];
+          double a = block[3 * i + j];
           if (l == 0) a *= d.mask_local[3 * v + i] * d.mask_local[3 * v + j];
           dl[9 * v + 3 * i + j] += a;
         }

@@ -51,10 +51,11 @@ Options read_options();
 
 class Multigrid {
  public:
-  /// Builds the hierarchy for the model's lattice and distribution. `fine_dm` is the
-  /// simulation's DM (level 0 vectors).
+  /// Builds the hierarchy for the model's lattice and distribution. `layout` and
+  /// `fine_dm` are the simulation's DOF layout and DM (level 0).
   Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
-            const topology::Partition& partition, DM fine_dm, const Options& options);
+            const topology::Partition& partition, const topology::DofLayout& layout, DM fine_dm,
+            const Options& options);
   ~Multigrid();
   Multigrid(const Multigrid&) = delete;
   Multigrid& operator=(const Multigrid&) = delete;

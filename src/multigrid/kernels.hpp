@@ -8,9 +8,15 @@
 #pragma once
 
 #include "element/host_device.hpp"
+#include "element/fine_cell.hpp"
 #include "element/reference.hpp"
 
 namespace hexcut::multigrid {
+
+using element::FineCell;
+using element::fine_cell_apply_add;
+using element::fine_row_block;
+using element::three_rows;
 
 /// Trilinear weight of coarse corner j at fine corner i of the child in octant o:
 /// w = prod_d (t_d if bit d of j else 1 - t_d), t_d = (o_d + i_d) / 2 in {0, 1/2, 1}.
@@ -44,62 +50,6 @@ HEXCUT_HD inline void galerkin_accumulate(const double* A_child, int octant, dou
         for (int i = 0; i < 8; ++i) s += w[8 * i + I] * T[24 * (3 * i + e) + c];
         A_parent[24 * (3 * I + e) + c] += s;
       }
-}
-
-/// What a fine cell's operator w_K R^ K R^T + w_M M needs: its unrotated stiffness K
-/// (24x24, shared per material), its rotation (nullptr = identity), and the mass
-/// weight m = w_M rho h^3 with the reference consistent mass (nullptr = lumped, m/8).
-struct FineCell {
-  const double* K;
-  const double* R;
-  double w_stiffness;
-  double mass;
-  const double* consistent_mass;
-};
-
-/// Three rows of a 24x24 row-major matrix times x24, with six independent partial sums
-/// (a single running sum per row would make the loop wait on add latency).
-HEXCUT_HD inline void three_rows(const double* K, const double* x24, double* y3) {
-  const double *k0 = K, *k1 = K + 24, *k2 = K + 48;
-  double a0 = 0, a1 = 0, a2 = 0, b0 = 0, b1 = 0, b2 = 0;
-  for (int k = 0; k < 24; k += 2) {
-    a0 += k0[k] * x24[k];
-    a1 += k1[k] * x24[k];
-    a2 += k2[k] * x24[k];
-    b0 += k0[k + 1] * x24[k + 1];
-    b1 += k1[k + 1] * x24[k + 1];
-    b2 += k2[k + 1] * x24[k + 1];
-  }
-  y3[0] = a0 + b0;
-  y3[1] = a1 + b1;
-  y3[2] = a2 + b2;
-}
-
-/// y3 = rows of corner q of the fine cell's operator times x24.
-HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24, double* y3) {
-  const double* Kq = c.K + 24 * 3 * q;
-  if (c.R) {
-    const double* R = c.R;
-    double xl[24];  // R^T x, corner by corner
-    for (int p = 0; p < 8; ++p)
-      for (int i = 0; i < 3; ++i)
-        xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    double yl[3];
-    three_rows(Kq, xl, yl);
-    for (int i = 0; i < 3; ++i) y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
-  } else {
-    three_rows(Kq, x24, y3);
-    for (int e = 0; e < 3; ++e) y3[e] *= c.w_stiffness;
-  }
-  if (c.mass != 0.0) {
-    if (!c.consistent_mass) {
-      for (int e = 0; e < 3; ++e) y3[e] += 0.125 * c.mass * x24[3 * q + e];
-    } else {
-      double m3[3];
-      three_rows(c.consistent_mass + 24 * 3 * q, x24, m3);
-      for (int e = 0; e < 3; ++e) y3[e] += c.mass * m3[e];
-    }
-  }
 }
 
 /// Packed storage of a symmetric 24x24 matrix: the upper triangle row by row, 300
@@ -174,47 +124,6 @@ HEXCUT_HD inline int corner_colour(const int* p, int q) {
 /// The corner of a cell at position p that has colour k.
 HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
   return ((k & 1) ^ (p[0] & 1)) + 2 * (((k >> 1) & 1) ^ (p[1] & 1)) + 4 * (((k >> 2) & 1) ^ (p[2] & 1));
-}
-
-}  // namespace hexcut::multigrid
-
-namespace hexcut::multigrid {
-
-/// y24 += S x24 for a symmetric 24x24 S, as a sum of rows scaled by x (row k of S is
-/// column k): 24 independent accumulators that the compiler vectorizes.
-HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const double* x24, double* y24) {
-  double acc[24] = {0};
-  for (int k = 0; k < 24; ++k) {
-    const double xk = x24[k];
-    const double* row = S + 24 * k;
-    for (int r = 0; r < 24; ++r) acc[r] += row[r] * xk;
-  }
-  for (int r = 0; r < 24; ++r) y24[r] += scale * acc[r];
-}
-
-/// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
-/// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
-HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
-  if (c.R) {
-    const double* R = c.R;
-    double xl[24], yl[24] = {0};
-    for (int p = 0; p < 8; ++p)
-      for (int i = 0; i < 3; ++i)
-        xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    symmetric_apply_add(c.K, c.w_stiffness, xl, yl);
-    for (int p = 0; p < 8; ++p)
-      for (int i = 0; i < 3; ++i)
-        y24[3 * p + i] += R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
-  } else {
-    symmetric_apply_add(c.K, c.w_stiffness, x24, y24);
-  }
-  if (c.mass != 0.0) {
-    if (!c.consistent_mass) {
-      for (int r = 0; r < 24; ++r) y24[r] += 0.125 * c.mass * x24[r];
-    } else {
-      symmetric_apply_add(c.consistent_mass, c.mass, x24, y24);
-    }
-  }
 }
 
 }  // namespace hexcut::multigrid
