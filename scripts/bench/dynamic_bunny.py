@@ -1,7 +1,8 @@
 """Dynamic corotational steps on the Stanford bunny (~270k cells): per step the
 rotations, the fine operator data and every Galerkin coarse block are rebuilt, then 2
 V-cycles (solver gmg-cycles) solve the Newmark system. Prints steps/s for 1 and 2 ranks.
-  /usr/bin/python3 scripts/bench/dynamic_bunny.py [--h 0.0009] [--steps 10] [--ranks 1 2]"""
+  /usr/bin/python3 scripts/bench/dynamic_bunny.py [--h 0.0009] [--steps 10] [--ranks 1 2]
+      [--options "-gmg_rebuild_tol 1e-2"]   (extra PETSc/hexcut options, one run each)"""
 import argparse
 import os
 import re
@@ -28,15 +29,16 @@ def main():
     ap.add_argument("--h", type=float, default=0.0009)
     ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--options", nargs="+", default=[""], help="option sets to compare, e.g. '' '-gmg_rebuild_tol 1e-2'")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as work:
         deck = os.path.join(work, "bunny.yaml")
         with open(deck, "w") as f:
             f.write(DECK.format(h=a.h, steps=a.steps, out=work, mesh=os.path.join(ROOT, "input/meshes/bunny.obj")))
-        print(f"{'ranks':>5} {'cells':>8} {'DOFs':>9} {'steps':>6} {'s/step':>8} {'steps/s':>8} "
+        print(f"{'options':>24} {'ranks':>5} {'cells':>8} {'DOFs':>9} {'steps':>6} {'s/step':>8} {'steps/s':>8} "
               f"{'assembly s/step':>16} {'solve s/step':>13}")
-        for r in a.ranks:
-            cmd = (["mpiexec", "-n", str(r)] if r > 1 else []) + [HEXCUT, deck, "-log_view"]
+        for r, opts in [(r, o) for r in a.ranks for o in a.options]:
+            cmd = (["mpiexec", "-n", str(r)] if r > 1 else []) + [HEXCUT, deck, "-log_view"] + opts.split()
             t0 = time.time()
             p = subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=True)
             cells = int(re.search(r"(\d+) cells", p.stdout).group(1))
@@ -46,7 +48,7 @@ def main():
             # Time-stepping wall time: assembly + solve + right-hand sides, from the progress line.
             wall = float(re.findall(r"wall ([\d.]+) s", p.stdout)[-1])
             per = wall / a.steps
-            print(f"{r:>5} {cells:>8} {dofs:>9} {a.steps:>6} {per:>8.3f} {1 / per:>8.2f} {asm / a.steps:>16.3f} "
+            print(f"{opts or '(defaults)':>24} {r:>5} {cells:>8} {dofs:>9} {a.steps:>6} {per:>8.3f} {1 / per:>8.2f} {asm / a.steps:>16.3f} "
                   f"{sol / a.steps:>13.3f}", flush=True)
 
 

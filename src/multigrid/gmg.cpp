@@ -16,6 +16,7 @@ struct Multigrid::LevelData {
   DM dm = nullptr;
   bool own_dm = false;
   Vec b = nullptr, x = nullptr, r = nullptr, tmp = nullptr;  // global
+  Vec dir = nullptr;                                         // global: Chebyshev direction
   Vec xl = nullptr, yl = nullptr;                            // local
   Vec mask = nullptr;                                        // global: 1 free, 0 prescribed or dead
   std::vector<double> mask_local;                            // per local DOF
@@ -25,6 +26,7 @@ struct Multigrid::LevelData {
   std::vector<int> colour;                                   // per owned copy
   std::vector<std::int32_t> colour_list[8];                  // owned copies of each colour
   std::vector<char> cell_masked;                             // level 0: cell has a prescribed DOF
+  std::vector<char> dirty;                                   // per local cell: rebuilt by update()
   std::vector<FineCell> fine;                                // level 0: kernel view of each cell
   std::vector<std::array<double, 576>> own_stiffness;        // level 0: K of cells without a kind
   std::vector<std::array<int, 3>> cell_pos;                  // per local cell
@@ -102,17 +104,25 @@ Options read_options() {
     if (n < 3) throw InputError("-gmg_coarse_dofs must be >= 3");
     o.hierarchy.coarse_dofs = n;
   }
-  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_hierarchy", buf, sizeof buf, &set), "options");
+  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_hierarchy", buf, sizeof buf, &set),
+              "options");
   if (set) {
-    if (!std::strcmp(buf, "naive")) o.hierarchy.mode = hierarchy::Coarsening::naive;
-    else if (!std::strcmp(buf, "components")) o.hierarchy.mode = hierarchy::Coarsening::components;
-    else throw InputError(std::string("-gmg_hierarchy must be components or naive, got ") + buf);
+    if (!std::strcmp(buf, "naive"))
+      o.hierarchy.mode = hierarchy::Coarsening::naive;
+    else if (!std::strcmp(buf, "components"))
+      o.hierarchy.mode = hierarchy::Coarsening::components;
+    else
+      throw InputError(std::string("-gmg_hierarchy must be components or naive, got ") + buf);
   }
-  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_smoother", buf, sizeof buf, &set), "options");
+  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_smoother", buf, sizeof buf, &set),
+              "options");
   if (set) {
-    if (!std::strcmp(buf, "gs")) o.smoother = Smoother::gauss_seidel;
-    else if (!std::strcmp(buf, "chebyshev")) o.smoother = Smoother::chebyshev;
-    else throw InputError(std::string("-gmg_smoother must be gs or chebyshev, got ") + buf);
+    if (!std::strcmp(buf, "gs"))
+      o.smoother = Smoother::gauss_seidel;
+    else if (!std::strcmp(buf, "chebyshev"))
+      o.smoother = Smoother::chebyshev;
+    else
+      throw InputError(std::string("-gmg_smoother must be gs or chebyshev, got ") + buf);
   }
   check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_presmooth", &n, &set), "options");
   if (set) o.presmooth = int(n);
@@ -126,15 +136,25 @@ Options read_options() {
     if (!(w > 0 && w < 2)) throw InputError("-gmg_omega must be in (0, 2)");
     o.omega = w;
   }
+  check_petsc(PetscOptionsGetReal(nullptr, nullptr, "-gmg_rebuild_tol", &w, &set), "options");
+  if (set) {
+    if (!(w >= 0)) throw InputError("-gmg_rebuild_tol must be >= 0");
+    o.rebuild_tolerance = w;
+  }
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_eig_every", &n, &set), "options");
+  if (set) {
+    if (n < 1) throw InputError("-gmg_eig_every must be >= 1");
+    o.eig_every = int(n);
+  }
   PetscBool view = PETSC_FALSE;
   check_petsc(PetscOptionsGetBool(nullptr, nullptr, "-gmg_view", &view, nullptr), "options");
   o.view = view;
   return o;
 }
 
-Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
-                     const topology::Partition& partition, const topology::DofLayout& layout, DM fine_dm,
-                     const Options& options)
+Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
+                     const topology::VertexCopies& copies, const topology::Partition& partition,
+                     const topology::DofLayout& layout, DM fine_dm, const Options& options)
     : comm_(comm), opt_(options) {
   PetscClassId id;
   check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
@@ -144,8 +164,8 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
   // Hierarchy construction counts as multigrid set-up (with update()'s operator build).
   PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
   const int rank = layout.rank;
-  levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition, layout,
-                                       options.hierarchy);
+  levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition,
+                                       layout, options.hierarchy);
   const int L = int(levels_.size());
   for (int l = 0; l < L; ++l) {
     auto d = std::make_unique<LevelData>();
@@ -160,6 +180,7 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     check_petsc(VecDuplicate(d->b, &d->x), "vec");
     check_petsc(VecDuplicate(d->b, &d->r), "vec");
     check_petsc(VecDuplicate(d->b, &d->tmp), "vec");
+    check_petsc(VecDuplicate(d->b, &d->dir), "vec");
     check_petsc(VecDuplicate(d->b, &d->mask), "vec");
     check_petsc(DMCreateLocalVector(d->dm, &d->xl), "vec");
     check_petsc(VecDuplicate(d->xl, &d->yl), "vec");
@@ -195,7 +216,8 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     for (std::size_t C = 0; C < n; ++C) d.child_offset[C + 1] += d.child_offset[C];
     d.children.resize(fine.layout.cells.size());
     std::vector<std::int32_t> next(d.child_offset.begin(), d.child_offset.end() - 1);
-    for (std::size_t e = 0; e < fine.layout.cells.size(); ++e) d.children[next[parent_of[e]]++] = std::int32_t(e);
+    for (std::size_t e = 0; e < fine.layout.cells.size(); ++e)
+      d.children[next[parent_of[e]]++] = std::int32_t(e);
   }
   // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
   for (int l = 0; l + 1 < L; ++l) {
@@ -203,14 +225,15 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     const auto& fine = levels_[l].layout;
     const auto& coarse = levels_[l + 1].layout;
     Mat P;
-    check_petsc(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE, PETSC_DETERMINE, 8, nullptr, 8,
-                             nullptr, &P),
+    check_petsc(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE,
+                             PETSC_DETERMINE, 8, nullptr, 8, nullptr, &P),
                 "MatCreateAIJ");
     for (std::size_t i = 0; i < I.fine.size(); ++i) {
       const PetscInt row = fine.global_block[I.fine[i]];
       for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j)
-        check_petsc(MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES),
-                    "MatSetValue");
+        check_petsc(
+            MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES),
+            "MatSetValue");
     }
     check_petsc(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "assembly");
     check_petsc(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "assembly");
@@ -218,9 +241,11 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topol
     check_petsc(MatDestroy(&P), "MatDestroy");
   }
   const auto& D0 = levels_[0].layout;
-  check_petsc(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE, PETSC_DETERMINE, this, &shell_),
+  check_petsc(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
+                             PETSC_DETERMINE, this, &shell_),
               "MatCreateShell");
-  check_petsc(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult), "MatShellSetOperation");
+  check_petsc(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult),
+              "MatShellSetOperation");
   check_petsc(MatSetBlockSize(shell_, 3), "MatSetBlockSize");
   check_petsc(MatSetOption(shell_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
   check_petsc(MatSetOption(shell_, MAT_SPD, PETSC_TRUE), "MatSetOption");
@@ -233,6 +258,7 @@ Multigrid::~Multigrid() {
     VecDestroy(&d->x);
     VecDestroy(&d->r);
     VecDestroy(&d->tmp);
+    VecDestroy(&d->dir);
     VecDestroy(&d->mask);
     VecDestroy(&d->xl);
     VecDestroy(&d->yl);
@@ -244,61 +270,101 @@ Multigrid::~Multigrid() {
   KSPDestroy(&coarse_ksp_);
 }
 
-Mat Multigrid::interpolation(int l) const { return data_[l]->P; }
-Vec Multigrid::mask(int l) const { return data_[l]->mask; }
-PetscErrorCode Multigrid::create_vector(int l, Vec* v) const { return DMCreateGlobalVector(data_[l]->dm, v); }
+Mat Multigrid::interpolation(int l) const {
+  return data_[l]->P;
+}
+Vec Multigrid::mask(int l) const {
+  return data_[l]->mask;
+}
+PetscErrorCode Multigrid::create_vector(int l, Vec* v) const {
+  return DMCreateGlobalVector(data_[l]->dm, v);
+}
+
+void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full) {
+  // A fine cell is dirty when its rotation moved by more than the tolerance since the
+  // block of its parent was built (or on a full rebuild).
+  auto& d = *data_[0];
+  const std::size_t n = levels_[0].layout.cells.size();
+  d.dirty.assign(n, full ? 1 : 0);
+  if (full) return;
+  const double tol = opt_.rebuild_tolerance;
+  for (std::size_t e = 0; e < n; ++e) {
+    const double* now = &cells.rotation[9 * e];
+    const double* then = &built_rotation_[9 * e];
+    for (int k = 0; k < 9 && !d.dirty[e]; ++k)
+      if (std::abs(now[k] - then[k]) > tol) d.dirty[e] = 1;
+  }
+}
 
 void Multigrid::update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
                        const std::vector<PetscInt>& constrained_rows) {
   PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
+  const int L = num_levels();
+  // Anything but rotations changed: rebuild everything (a collective decision).
+  int full = !built_ || w.stiffness != weights_.stiffness || w.mass != weights_.mass ||
+             w.lumped_mass != weights_.lumped_mass || constrained_rows != built_rows_ ||
+             built_rotation_.size() != cells.rotation.size();
+  MPI_Allreduce(MPI_IN_PLACE, &full, 1, MPI_INT, MPI_LOR, comm_);
   fine_cells_ = &cells;
   weights_ = w;
-  const int L = num_levels();
-  // Level 0 mask from the prescribed rows, then to the ghosts.
-  {
-    auto& d = *data_[0];
-    check_petsc(VecSet(d.mask, 1.0), "VecSet");
+  rebuilt_.assign(L, 0);
+  auto& d0 = *data_[0];
+  const auto& D0 = levels_[0].layout;
+  if (full) {
+    // Level 0 mask from the prescribed rows, then to the ghosts.
+    built_rows_ = constrained_rows;
+    check_petsc(VecSet(d0.mask, 1.0), "VecSet");
     PetscInt lo;
-    check_petsc(VecGetOwnershipRange(d.mask, &lo, nullptr), "range");
+    check_petsc(VecGetOwnershipRange(d0.mask, &lo, nullptr), "range");
     PetscScalar* m;
-    check_petsc(VecGetArray(d.mask, &m), "array");
+    check_petsc(VecGetArray(d0.mask, &m), "array");
     for (PetscInt row : constrained_rows) m[row - lo] = 0.0;
-    check_petsc(VecRestoreArray(d.mask, &m), "array");
-    refresh_local_mask(d);
-    const auto& D = levels_[0].layout;
-    d.cell_masked.assign(D.cells.size(), 0);
-    for (std::size_t e = 0; e < D.cells.size(); ++e)
-      for (auto v : D.cell_corners[e])
+    check_petsc(VecRestoreArray(d0.mask, &m), "array");
+    refresh_local_mask(d0);
+    d0.cell_masked.assign(D0.cells.size(), 0);
+    for (std::size_t e = 0; e < D0.cells.size(); ++e)
+      for (auto v : D0.cell_corners[e])
         for (int c = 0; c < 3; ++c)
-          if (d.mask_local[3 * v + c] == 0.0) d.cell_masked[e] = 1;
-    // Kernel views of the fine cells, built once per update rather than per cell visit.
-    d.fine.resize(D.cells.size());
-    d.own_stiffness.clear();
-    std::size_t own = 0;
-    for (std::size_t e = 0; e < D.cells.size(); ++e) own += cells.kind[e] < 0;
-    d.own_stiffness.resize(own);
-    own = 0;
-    for (std::size_t e = 0; e < D.cells.size(); ++e) {
-      double* buffer = cells.kind[e] < 0 ? d.own_stiffness[own++].data() : nullptr;
-      d.fine[e] = assembly::fine_cell_view(cells, e, w, buffer);
-    }
+          if (d0.mask_local[3 * v + c] == 0.0) d0.cell_masked[e] = 1;
+  }
+  mark_dirty_fine_cells(cells, full);
+  // Kernel views of the fine cells, built once per update rather than per cell visit.
+  // The fine operator always uses the current rotations, whatever is rebuilt above it.
+  d0.fine.resize(D0.cells.size());
+  d0.own_stiffness.clear();
+  std::size_t own = 0;
+  for (std::size_t e = 0; e < D0.cells.size(); ++e) own += cells.kind[e] < 0;
+  d0.own_stiffness.resize(own);
+  own = 0;
+  for (std::size_t e = 0; e < D0.cells.size(); ++e) {
+    double* buffer = cells.kind[e] < 0 ? d0.own_stiffness[own++].data() : nullptr;
+    d0.fine[e] = assembly::fine_cell_view(cells, e, w, buffer);
   }
   build_diagonal(0);
-  // Galerkin coarse blocks, level by level: each coarse block is accumulated in full
-  // 24x24 form from its (at most 8) children, then stored packed.
+  for (char c : d0.dirty) rebuilt_[0] += c;
+  // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child: each
+  // is accumulated in full 24x24 form from its (at most 8) children, then stored packed.
+  if (built_rotation_.size() != cells.rotation.size())
+    built_rotation_.assign(cells.rotation.size(), 0.0);
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
     const auto& fine = levels_[l - 1];
     const auto& fd = *data_[l - 1];
     const std::size_t n = levels_[l].layout.cells.size();
-    d.cell_matrix.assign(kPackedSize * n, 0.0);
+    if (d.cell_matrix.size() != kPackedSize * n) d.cell_matrix.assign(kPackedSize * n, 0.0);
+    d.dirty.assign(n, 0);
     double A[576], child[576], parent[576];
     for (std::size_t C = 0; C < n; ++C) {
+      for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k)
+        if (fd.dirty[d.children[k]]) d.dirty[C] = 1;
+      if (!d.dirty[C]) continue;
+      ++rebuilt_[l];
       std::fill(parent, parent + 576, 0.0);
       for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k) {
         const auto e = std::size_t(d.children[k]);
         if (l - 1 == 0) {
           assembly::cell_operator(cells, e, w, A);
+          std::copy_n(&cells.rotation[9 * e], 9, &built_rotation_[9 * e]);
           double m[24];
           gather24(fd.mask_local.data(), fine.layout.cell_corners[e], m);
           for (int r = 0; r < 24; ++r)
@@ -311,11 +377,20 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
       }
       pack_symmetric(parent, &d.cell_matrix[kPackedSize * C]);
     }
-    build_diagonal(l);
+    // The diagonal blocks sum over ranks: rebuilt wherever any rank changed this level.
+    int changed = rebuilt_[l] > 0;
+    MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
+    if (changed) build_diagonal(l);
+    if (l == L - 1 && changed) build_coarsest();
   }
-  if (opt_.smoother == Smoother::chebyshev)
-    for (int l = 0; l + 1 < L; ++l) estimate_lambda_max(l);
-  build_coarsest();
+  if (L == 1) build_coarsest();
+  if (opt_.smoother == Smoother::chebyshev) {
+    if (full || ++updates_since_estimate_ >= opt_.eig_every) {
+      for (int l = 0; l + 1 < L; ++l) estimate_lambda_max(l);
+      updates_since_estimate_ = 0;
+    }
+  }
+  built_ = true;
   PetscLogEventEnd(ev_setup_, 0, 0, 0, 0);
   if (opt_.view) check_petsc(view(PETSC_VIEWER_STDOUT_(comm_)), "view");
 }
@@ -327,7 +402,8 @@ void Multigrid::build_diagonal(int l) {
   // ghost exchange (kept only during set-up: it would be the largest array per DOF).
   Vec diag_g, diag_l;
   VecScatter diag_scatter;
-  check_petsc(topology::create_ghost_scatter(comm_, D, 9, &diag_g, &diag_l, &diag_scatter), "ghost scatter");
+  check_petsc(topology::create_ghost_scatter(comm_, D, 9, &diag_g, &diag_l, &diag_scatter),
+              "ghost scatter");
   check_petsc(VecSet(diag_l, 0.0), "VecSet");
   PetscScalar* dl;
   check_petsc(VecGetArray(diag_l, &dl), "array");
@@ -353,7 +429,8 @@ void Multigrid::build_diagonal(int l) {
   }
   check_petsc(VecRestoreArray(diag_l, &dl), "array");
   check_petsc(VecSet(diag_g, 0.0), "VecSet");
-  check_petsc(VecScatterBegin(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  check_petsc(VecScatterBegin(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE),
+              "scatter");
   check_petsc(VecScatterEnd(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
   const PetscScalar* dg;
   check_petsc(VecGetArrayRead(diag_g, &dg), "array");
@@ -445,8 +522,12 @@ PetscErrorCode Multigrid::apply_level_impl(int l, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Multigrid::apply_fine(Vec x, Vec y) { return apply_level_impl(0, x, y); }
-PetscErrorCode Multigrid::apply_level(int l, Vec x, Vec y) { return apply_level_impl(l, x, y); }
+PetscErrorCode Multigrid::apply_fine(Vec x, Vec y) {
+  return apply_level_impl(0, x, y);
+}
+PetscErrorCode Multigrid::apply_level(int l, Vec x, Vec y) {
+  return apply_level_impl(l, x, y);
+}
 
 PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
   PetscFunctionBeginUser;
@@ -512,10 +593,12 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
     PetscCall(VecGetArray(x, &xg));
     for (auto i : d.colour_list[k]) {
       double res[3];
-      for (int c = 0; c < 3; ++c) res[c] = ba[3 * i + c] - ra[3 * i + c] - (ma[3 * i + c] == 0.0 ? xg[3 * i + c] : 0.0);
+      for (int c = 0; c < 3; ++c)
+        res[c] = ba[3 * i + c] - ra[3 * i + c] - (ma[3 * i + c] == 0.0 ? xg[3 * i + c] : 0.0);
       const double* Di = &d.diag_inv[9 * i];
       for (int c = 0; c < 3; ++c)
-        xg[3 * i + c] += opt_.omega * (Di[3 * c] * res[0] + Di[3 * c + 1] * res[1] + Di[3 * c + 2] * res[2]);
+        xg[3 * i + c] +=
+            opt_.omega * (Di[3 * c] * res[0] + Di[3 * c + 1] * res[1] + Di[3 * c + 2] * res[2]);
     }
     PetscCall(VecRestoreArray(x, &xg));
     PetscCall(VecRestoreArrayRead(d.mask, &ma));
@@ -542,7 +625,8 @@ PetscErrorCode block_jacobi(const std::vector<double>& diag_inv, Vec x, Vec y) {
   for (std::size_t i = 0; i < n; ++i) {
     const double* Di = &diag_inv[9 * i];
     for (int c = 0; c < 3; ++c)
-      ya[3 * i + c] = Di[3 * c] * xa[3 * i] + Di[3 * c + 1] * xa[3 * i + 1] + Di[3 * c + 2] * xa[3 * i + 2];
+      ya[3 * i + c] =
+          Di[3 * c] * xa[3 * i] + Di[3 * c + 1] * xa[3 * i + 1] + Di[3 * c + 2] * xa[3 * i + 2];
   }
   PetscCall(VecRestoreArray(y, &ya));
   PetscCall(VecRestoreArrayRead(x, &xa));
@@ -591,8 +675,7 @@ PetscErrorCode Multigrid::chebyshev(int l, Vec b, Vec x, int degree) {
   const double hi = 1.1 * d.lambda_max, lo = 0.2 * d.lambda_max;
   const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
   double rho_old = 1.0 / sigma;
-  Vec r = d.r, z = d.tmp, dir;
-  PetscCall(VecDuplicate(x, &dir));
+  Vec r = d.r, z = d.tmp, dir = d.dir;
   PetscCall(apply_level_impl(l, x, r));
   PetscCall(VecAYPX(r, -1.0, b));
   PetscCall(block_jacobi(d.diag_inv, r, z));
@@ -607,7 +690,6 @@ PetscErrorCode Multigrid::chebyshev(int l, Vec b, Vec x, int degree) {
     PetscCall(VecAXPBY(dir, 2.0 * rho / delta, rho * rho_old, z));
     rho_old = rho;
   }
-  PetscCall(VecDestroy(&dir));
   PetscFunctionReturn(0);
 }
 
@@ -628,8 +710,14 @@ void Multigrid::build_coarsest() {
   const int l = num_levels() - 1;
   const auto& lev = levels_[l];
   auto& d = *data_[l];
-  MatDestroy(&coarse_matrix_);
-  check_petsc(assembly::create_matrix(comm_, lev.copies, lev.partition, lev.layout, &coarse_matrix_), "create_matrix");
+  // The pattern never changes: re-filling the same matrix lets the factorization keep
+  // its symbolic phase and redo only the numeric one.
+  if (!coarse_matrix_)
+    check_petsc(
+        assembly::create_matrix(comm_, lev.copies, lev.partition, lev.layout, &coarse_matrix_),
+        "create_matrix");
+  else
+    check_petsc(MatZeroEntries(coarse_matrix_), "MatZeroEntries");
   double A[576];
   PetscInt idx[8];
   for (std::size_t e = 0; e < lev.layout.cells.size(); ++e) {
@@ -645,8 +733,10 @@ void Multigrid::build_coarsest() {
       unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
       Ae = A;
     }
-    for (int q = 0; q < 8; ++q) idx[q] = lev.layout.global_block[lev.layout.copies[lev.layout.cell_corners[e][q]]];
-    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, Ae, ADD_VALUES), "MatSetValuesBlocked");
+    for (int q = 0; q < 8; ++q)
+      idx[q] = lev.layout.global_block[lev.layout.copies[lev.layout.cell_corners[e][q]]];
+    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, Ae, ADD_VALUES),
+                "MatSetValuesBlocked");
   }
   PetscInt lo;
   check_petsc(VecGetOwnershipRange(d.mask, &lo, nullptr), "range");
@@ -655,7 +745,8 @@ void Multigrid::build_coarsest() {
   check_petsc(VecGetLocalSize(d.mask, &n), "size");
   check_petsc(VecGetArrayRead(d.mask, &m), "array");
   for (PetscInt i = 0; i < n; ++i)
-    if (m[i] == 0.0) check_petsc(MatSetValue(coarse_matrix_, lo + i, lo + i, 1.0, ADD_VALUES), "MatSetValue");
+    if (m[i] == 0.0)
+      check_petsc(MatSetValue(coarse_matrix_, lo + i, lo + i, 1.0, ADD_VALUES), "MatSetValue");
   check_petsc(VecRestoreArrayRead(d.mask, &m), "array");
   check_petsc(MatAssemblyBegin(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
   check_petsc(MatAssemblyEnd(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
@@ -717,12 +808,14 @@ PetscErrorCode Multigrid::attach(PC pc) {
 
 PetscErrorCode Multigrid::view(PetscViewer viewer) const {
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "hexcut gmg: %d levels, hierarchy %s, smoother %s V(%d,%d)%s\n",
-                                   num_levels(),
-                                   opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
-                                   opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
-                                   opt_.presmooth, opt_.postsmooth, opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "  level      cells  shared-pos      DOFs   nnz-equiv     held MiB\n"));
+  PetscCall(PetscViewerASCIIPrintf(
+      viewer, "hexcut gmg: %d levels, hierarchy %s, smoother %s V(%d,%d)%s\n", num_levels(),
+      opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
+      opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
+      opt_.presmooth, opt_.postsmooth,
+      opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
+  PetscCall(PetscViewerASCIIPrintf(
+      viewer, "  level      cells  shared-pos      DOFs   nnz-equiv     held MiB   rebuilt\n"));
   double total_bytes = 0.0, fine_nnz = 0.0, fine_dofs = 1.0;
   for (int l = 0; l < num_levels(); ++l) {
     const auto& lev = levels_[l];
@@ -733,7 +826,8 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       if (!seen.insert(key).second) dup.insert(key);
     }
     std::int64_t shared = 0;
-    for (const auto& p : lev.graph.ijk) shared += dup.count(lev.graph.spec.cell_index(p[0], p[1], p[2]));
+    for (const auto& p : lev.graph.ijk)
+      shared += dup.count(lev.graph.spec.cell_index(p[0], p[1], p[2]));
     // Nonzeros an assembled matrix of this level would have: 9 per coupled copy pair.
     std::vector<std::vector<std::int32_t>> nb(lev.copies.num_copies);
     for (const auto& corners : lev.copies.cell_corners)
@@ -748,28 +842,34 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     // lambda, mu, rho, R and a kernel view per cell; coarse: a packed 24x24 block per
     // cell), the inverted 3x3 diagonal blocks, the interpolation to this level from the
     // next (MAIJ over copies: value + column index, 8 per copy at most) and the work
-    // vectors (5 global + 2 local, ghosts ignored).
+    // vectors (6 global + 2 local, ghosts ignored). Level 0 also keeps the rotations the
+    // coarse blocks were built from (partial rebuilds compare against them).
     const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
-    const double op = l == 0 ? cells * (13.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * 8.0;
+    const double op = l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * 8.0;
     const double transfer = l + 1 < num_levels() ? copies * 8.0 * 12.0 : 0.0;
-    const double bytes = op + copies * 9.0 * 8.0 + transfer + 7.0 * 3.0 * copies * 8.0;
+    const double bytes = op + copies * 9.0 * 8.0 + transfer + 8.0 * 3.0 * copies * 8.0;
+    std::int64_t rebuilt = rebuilt_.empty() ? 0 : rebuilt_[l];
+    MPI_Allreduce(MPI_IN_PLACE, &rebuilt, 1, MPI_INT64_T, MPI_SUM, comm_);
     total_bytes += bytes;
     if (l == 0) fine_nnz = 9.0 * double(pairs), fine_dofs = 3.0 * copies;
-    PetscCall(PetscViewerASCIIPrintf(viewer, "  %5d %10d %11lld %9d %11lld %12.2f%s\n", l, int(lev.graph.num_cells()),
-                                     (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs),
-                                     bytes / (1024.0 * 1024.0),
-                                     l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)" : ""));
+    PetscCall(PetscViewerASCIIPrintf(
+        viewer, "  %5d %10d %11lld %9d %11lld %12.2f %9lld%s\n", l, int(lev.graph.num_cells()),
+        (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs),
+        bytes / (1024.0 * 1024.0), (long long)rebuilt,
+        l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)" : ""));
   }
   if (opt_.smoother == Smoother::chebyshev) {
     PetscCall(PetscViewerASCIIPrintf(viewer, "  lambda_max(D^-1 A) estimates:"));
-    for (int l = 0; l + 1 < num_levels(); ++l) PetscCall(PetscViewerASCIIPrintf(viewer, " %.4f", data_[l]->lambda_max));
+    for (int l = 0; l + 1 < num_levels(); ++l)
+      PetscCall(PetscViewerASCIIPrintf(viewer, " %.4f", data_[l]->lambda_max));
     PetscCall(PetscViewerASCIIPrintf(viewer, "\n"));
   }
-  PetscCall(PetscViewerASCIIPrintf(viewer,
-                                   "  total %.1f MiB = %.0f bytes/DOF; an assembled AIJ matrix of level 0 alone "
-                                   "(value + column index per nonzero) would be %.0f bytes/DOF (ratio %.2f)\n",
-                                   total_bytes / (1024.0 * 1024.0), total_bytes / fine_dofs, 12.0 * fine_nnz / fine_dofs,
-                                   total_bytes / (12.0 * fine_nnz)));
+  PetscCall(PetscViewerASCIIPrintf(
+      viewer,
+      "  total %.1f MiB = %.0f bytes/DOF; an assembled AIJ matrix of level 0 alone "
+      "(value + column index per nonzero) would be %.0f bytes/DOF (ratio %.2f)\n",
+      total_bytes / (1024.0 * 1024.0), total_bytes / fine_dofs, 12.0 * fine_nnz / fine_dofs,
+      total_bytes / (12.0 * fine_nnz)));
   PetscFunctionReturn(0);
 }
 

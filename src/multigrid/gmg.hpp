@@ -18,6 +18,12 @@
 //   -gmg_smoother gs|chebyshev        (default chebyshev)
 //   -gmg_presmooth N, -gmg_postsmooth N   sweeps (Chebyshev: degree) (default 2, 2)
 //   -gmg_omega W             Gauss-Seidel relaxation weight (default 1)
+//   -gmg_rebuild_tol T       rotation-only updates rebuild the Galerkin blocks of the
+//                            coarse cells with a descendant whose rotation moved by more
+//                            than T (max entry) since its block was built (default 0:
+//                            any change; the fine operator always uses the current one)
+//   -gmg_eig_every N         Chebyshev: re-estimate lambda_max on every Nth rotation-only
+//                            update (default 10; always after a full rebuild)
 //   -gmg_view                print the hierarchy after set-up
 #pragma once
 
@@ -43,6 +49,12 @@ struct Options {
   int presmooth = 2;
   int postsmooth = 2;
   double omega = 1.0;
+  // Partial rebuild (rotation-only updates): a Galerkin block is rebuilt when a
+  // descendant's rotation moved by more than this since the block was built.
+  double rebuild_tolerance = 0.0;
+  // Rotations are cell-wise similarity transforms, so lambda_max(D^-1 A) drifts slowly:
+  // rotation-only updates re-estimate it only every eig_every-th time.
+  int eig_every = 10;
   bool view = false;
 };
 
@@ -60,11 +72,19 @@ class Multigrid {
   Multigrid(const Multigrid&) = delete;
   Multigrid& operator=(const Multigrid&) = delete;
 
-  /// (Re)builds every level's operator from the fine cell data and weights, with the
+  /// (Re)builds the levels' operators from the fine cell data and weights, with the
   /// given prescribed (owned, global) DOFs as identity rows. Call after each change of
-  /// rotations or weights (every step of a corotational run).
+  /// rotations or weights (every step of a corotational run). The first call, and any
+  /// call with other weights or prescribed rows, rebuilds everything; otherwise only the
+  /// rotations are compared with those the blocks were built from, and only the coarse
+  /// cells above changed fine cells are rebuilt (their ancestors). Lambda, mu and rho
+  /// are assumed unchanged between updates: call invalidate() after changing them.
   void update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
               const std::vector<PetscInt>& constrained_rows);
+  /// Makes the next update() rebuild everything.
+  void invalidate() { built_ = false; }
+  /// Cells of level l (on this rank) whose operator data the last update() rebuilt.
+  std::int64_t rebuilt_cells(int l) const { return rebuilt_[l]; }
 
   /// One V-cycle: x = M^{-1} b (x is overwritten).
   PetscErrorCode vcycle(Vec b, Vec x);
@@ -99,6 +119,7 @@ class Multigrid {
   PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
   PetscErrorCode vcycle_level(int l);
   void build_diagonal(int l);
+  void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
   void refresh_local_mask(LevelData& d);
   void estimate_lambda_max(int l);
   void build_coarsest();
@@ -109,6 +130,11 @@ class Multigrid {
   std::vector<std::unique_ptr<LevelData>> data_;
   const assembly::CellData* fine_cells_ = nullptr;
   assembly::OperatorWeights weights_;
+  bool built_ = false;
+  std::vector<double> built_rotation_;  // level 0: rotation each cell's parent block saw
+  std::vector<PetscInt> built_rows_;
+  int updates_since_estimate_ = 0;
+  std::vector<std::int64_t> rebuilt_;
   Mat shell_ = nullptr;
   KSP coarse_ksp_ = nullptr;
   Mat coarse_matrix_ = nullptr;

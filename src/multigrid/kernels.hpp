@@ -7,15 +7,15 @@
 // offset (a,b,c) in the 2x2x2 block.
 #pragma once
 
-#include "element/host_device.hpp"
 #include "element/fine_cell.hpp"
+#include "element/host_device.hpp"
 #include "element/reference.hpp"
 
 namespace hexcut::multigrid {
 
-using element::FineCell;
 using element::fine_cell_apply_add;
 using element::fine_row_block;
+using element::FineCell;
 using element::three_rows;
 
 /// Trilinear weight of coarse corner j at fine corner i of the child in octant o:
@@ -29,27 +29,37 @@ HEXCUT_HD inline double child_weight(int octant, int i, int j) {
   return w;
 }
 
-/// A_parent += W^T A_child W with W = kron(w, I3), w the 8x8 child weights of `octant`.
-/// Exploits the Kronecker structure: T = A_child W (24x24 via 8x8 weights) then W^T T.
+/// A_parent += W^T A_child W with W = kron(w, I3), w the 8x8 child weights of `octant`
+/// (A_child symmetric). w has 27 nonzeros of 64 (a fine corner lies on a coarse corner,
+/// edge, face or centre: 1, 2, 4 or 8 weights), so both products run over the nonzeros
+/// only, about 3.9k multiply-adds instead of 2 x 24^3. Both are written as sums of
+/// scaled contiguous rows (U = W^T A, then W^T U^T = (U W)^T = U W by symmetry), which
+/// the compiler vectorizes.
 HEXCUT_HD inline void galerkin_accumulate(const double* A_child, int octant, double* A_parent) {
-  double w[64];
+  int nz_i[27], nz_j[27];
+  double nz_w[27];
+  int n = 0;
   for (int i = 0; i < 8; ++i)
-    for (int j = 0; j < 8; ++j) w[8 * i + j] = child_weight(octant, i, j);
-  double T[576];  // T = A_child W
+    for (int j = 0; j < 8; ++j) {
+      const double w = child_weight(octant, i, j);
+      if (w != 0.0) nz_i[n] = i, nz_j[n] = j, nz_w[n++] = w;
+    }
+  double U[576], Ut[576];
+  for (int k = 0; k < 576; ++k) U[k] = 0.0;
+  for (int k = 0; k < n; ++k)
+    for (int e = 0; e < 3; ++e) {
+      const double* a = &A_child[24 * (3 * nz_i[k] + e)];
+      double* u = &U[24 * (3 * nz_j[k] + e)];
+      for (int c = 0; c < 24; ++c) u[c] += nz_w[k] * a[c];
+    }
   for (int r = 0; r < 24; ++r)
-    for (int J = 0; J < 8; ++J)
-      for (int d = 0; d < 3; ++d) {
-        double s = 0.0;
-        for (int i = 0; i < 8; ++i) s += A_child[24 * r + 3 * i + d] * w[8 * i + J];
-        T[24 * r + 3 * J + d] = s;
-      }
-  for (int I = 0; I < 8; ++I)
-    for (int e = 0; e < 3; ++e)
-      for (int c = 0; c < 24; ++c) {
-        double s = 0.0;
-        for (int i = 0; i < 8; ++i) s += w[8 * i + I] * T[24 * (3 * i + e) + c];
-        A_parent[24 * (3 * I + e) + c] += s;
-      }
+    for (int c = 0; c < 24; ++c) Ut[24 * c + r] = U[24 * r + c];
+  for (int k = 0; k < n; ++k)
+    for (int e = 0; e < 3; ++e) {
+      const double* u = &Ut[24 * (3 * nz_i[k] + e)];
+      double* a = &A_parent[24 * (3 * nz_j[k] + e)];
+      for (int c = 0; c < 24; ++c) a[c] += nz_w[k] * u[c];
+    }
 }
 
 /// Packed storage of a symmetric 24x24 matrix: the upper triangle row by row, 300
@@ -99,7 +109,8 @@ HEXCUT_HD inline void packed_apply_add(const double* P, const double* x24, doubl
 
 /// Inverse of a 3x3 matrix (row-major); returns false when singular.
 HEXCUT_HD inline bool invert3(const double* a, double* inv) {
-  const double c00 = a[4] * a[8] - a[5] * a[7], c01 = a[5] * a[6] - a[3] * a[8], c02 = a[3] * a[7] - a[4] * a[6];
+  const double c00 = a[4] * a[8] - a[5] * a[7], c01 = a[5] * a[6] - a[3] * a[8],
+               c02 = a[3] * a[7] - a[4] * a[6];
   const double det = a[0] * c00 + a[1] * c01 + a[2] * c02;
   if (det == 0.0) return false;
   const double s = 1.0 / det;
@@ -118,12 +129,14 @@ HEXCUT_HD inline bool invert3(const double* a, double* inv) {
 /// Parity colour (0..7) of corner q of a cell at level position p: the colour of the
 /// lattice vertex p + offset(q). The 8 corners of a cell have 8 different colours.
 HEXCUT_HD inline int corner_colour(const int* p, int q) {
-  return ((p[0] + (q & 1)) & 1) + 2 * ((p[1] + ((q >> 1) & 1)) & 1) + 4 * ((p[2] + ((q >> 2) & 1)) & 1);
+  return ((p[0] + (q & 1)) & 1) + 2 * ((p[1] + ((q >> 1) & 1)) & 1) +
+         4 * ((p[2] + ((q >> 2) & 1)) & 1);
 }
 
 /// The corner of a cell at position p that has colour k.
 HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
-  return ((k & 1) ^ (p[0] & 1)) + 2 * (((k >> 1) & 1) ^ (p[1] & 1)) + 4 * (((k >> 2) & 1) ^ (p[2] & 1));
+  return ((k & 1) ^ (p[0] & 1)) + 2 * (((k >> 1) & 1) ^ (p[1] & 1)) +
+         4 * (((k >> 2) & 1) ^ (p[2] & 1));
 }
 
 }  // namespace hexcut::multigrid

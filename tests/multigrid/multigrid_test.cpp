@@ -3,6 +3,7 @@
 // consistency, V-cycle symmetry, and convergence of GMG-CG. Runs on 1 or 2 ranks.
 #include <Eigen/Geometry>
 #include <cmath>
+#include <set>
 
 #include "../analysis/fixture.hpp"
 #include "assembly/boundary.hpp"
@@ -19,7 +20,8 @@ const char* kBlock =
     "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n"
     "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
     "    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      components: [y]\n"
-    "  traction:\n    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      value: [0, 0, -10.0]\n"
+    "  traction:\n    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      value: [0, "
+    "0, -10.0]\n"
     "analysis: {type: static, formulation: corotational}\n"
     "solver: {type: gmg, rtol: 1.0e-10}\n";
 
@@ -70,10 +72,12 @@ struct Operators {
   Job job;
   Mat A = nullptr;  // assembled, constrained
   assembly::OperatorWeights w;
-  Operators(const std::string& yaml, assembly::OperatorWeights weights, const char* options = "-gmg_levels 3")
+  Operators(const std::string& yaml, assembly::OperatorWeights weights,
+            const char* options = "-gmg_levels 3")
       : job(PETSC_COMM_WORLD, yaml, 8, options), w(weights) {
     set_rotations(job);
-    check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.partition, job.model.layout, &A),
+    check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.partition,
+                                        job.model.layout, &A),
                 "create");
     check_petsc(assembly::assemble_matrix(job.model.layout, job.model.cells, w, A), "assemble");
     check_petsc(assembly::constrain_matrix(job.model.boundary.constraints, A), "constrain");
@@ -85,7 +89,8 @@ struct Operators {
 class EveryWeighting : public ::testing::TestWithParam<int> {};
 
 TEST_P(EveryWeighting, MatrixFreeApplyEqualsAssembledMatrix) {
-  const assembly::OperatorWeights weights[3] = {{1.0, 0.0, true}, {1.7, 40.0, true}, {1.2, 25.0, false}};
+  const assembly::OperatorWeights weights[3] = {
+      {1.0, 0.0, true}, {1.7, 40.0, true}, {1.2, 25.0, false}};
   Operators ops(kBlock, weights[GetParam()]);
   auto* mg = ops.job.sim->multigrid();
   Vec x, y_mf, y_as;
@@ -132,6 +137,100 @@ TEST(Multigrid, GalerkinBlocksEqualPtAP) {
   for (Mat& m : owned) MatDestroy(&m);
 }
 
+/// Turns the rotation of every local cell with x-origin below `x_max` by `angle` about z;
+/// returns the canonical ids of the turned cells.
+std::vector<std::int32_t> turn_cells(Job& job, double x_max, double angle) {
+  auto& cells = job.model.cells;
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  std::vector<std::int32_t> turned;
+  for (std::size_t e = 0; e < job.model.layout.cells.size(); ++e) {
+    if (cells.origin[e][0] >= x_max) continue;
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(&cells.rotation[9 * e]);
+    R = (turn * R).eval();
+    turned.push_back(job.model.layout.cells[e]);
+  }
+  return turned;
+}
+
+/// Level-l operator applied to a fixed vector.
+double level_apply_difference(multigrid::Multigrid* mg, int l, const std::vector<Vec>& reference) {
+  Vec x, y;
+  mg->create_vector(l, &x);
+  VecDuplicate(x, &y);
+  fill(x, 0.7 * l);
+  mg->apply_level(l, x, y);
+  const double d = rel_diff(reference[l], y);
+  VecDestroy(&x);
+  VecDestroy(&y);
+  return d;
+}
+
+TEST(Multigrid, PartialRebuildTouchesOnlyAncestorsAndEqualsFullRebuild) {
+  const assembly::OperatorWeights w{1.3, 10.0, false};
+  Operators ops(kBlock, w);
+  auto* mg = ops.job.sim->multigrid();
+  ASSERT_EQ(mg->num_levels(), 3);
+  for (int l = 0; l < 3; ++l)
+    EXPECT_EQ(mg->rebuilt_cells(l), std::int64_t(mg->level(l).layout.cells.size()))
+        << "first update: all";
+  // Turn the cells near the clamped end; the ancestors of exactly those are rebuilt.
+  const auto turned = turn_cells(ops.job, 0.25, 0.1);
+  std::set<std::int32_t> parents1, parents2;
+  for (auto c : turned) parents1.insert(mg->level(0).parent[c]);
+  for (auto c : parents1) parents2.insert(mg->level(1).parent[c]);
+  mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
+  EXPECT_EQ(mg->rebuilt_cells(0), std::int64_t(turned.size()));
+  EXPECT_EQ(mg->rebuilt_cells(1), std::int64_t(parents1.size()));
+  EXPECT_EQ(mg->rebuilt_cells(2), std::int64_t(parents2.size()));
+  std::int64_t n1 = std::int64_t(mg->level(1).layout.cells.size()),
+               total_turned = std::int64_t(turned.size());
+  MPI_Allreduce(MPI_IN_PLACE, &n1, 1, MPI_INT64_T, MPI_SUM, PETSC_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &total_turned, 1, MPI_INT64_T, MPI_SUM, PETSC_COMM_WORLD);
+  std::int64_t r1 = mg->rebuilt_cells(1);
+  MPI_Allreduce(MPI_IN_PLACE, &r1, 1, MPI_INT64_T, MPI_SUM, PETSC_COMM_WORLD);
+  ASSERT_GT(total_turned, 0);
+  EXPECT_LT(r1, n1 / 2) << "a partial rebuild";
+  // Every level equals a full rebuild from the same cell data.
+  std::vector<Vec> partial(3);
+  for (int l = 0; l < 3; ++l) {
+    Vec x;
+    mg->create_vector(l, &x);
+    VecDuplicate(x, &partial[l]);
+    fill(x, 0.7 * l);
+    mg->apply_level(l, x, partial[l]);
+    VecDestroy(&x);
+  }
+  mg->invalidate();
+  mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
+  EXPECT_EQ(mg->rebuilt_cells(1), std::int64_t(mg->level(1).layout.cells.size()));
+  for (int l = 0; l < 3; ++l)
+    EXPECT_LT(level_apply_difference(mg, l, partial), 1e-14) << "level " << l;
+  for (Vec& v : partial) VecDestroy(&v);
+}
+
+TEST(Multigrid, RebuildToleranceKeepsCoarseBlocksButNotTheFineOperator) {
+  const assembly::OperatorWeights w{1.0, 5.0, true};
+  Operators ops(kBlock, w, "-gmg_levels 3 -gmg_rebuild_tol 0.5");
+  auto* mg = ops.job.sim->multigrid();
+  turn_cells(ops.job, 0.25, 0.1);  // entries move by < 0.1
+  mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
+  EXPECT_EQ(mg->rebuilt_cells(1), 0);
+  EXPECT_EQ(mg->rebuilt_cells(2), 0);
+  // The fine operator is the current one: equal to the matrix assembled now.
+  check_petsc(assembly::assemble_matrix(ops.job.model.layout, ops.job.model.cells, w, ops.A),
+              "assemble");
+  check_petsc(assembly::constrain_matrix(ops.job.model.boundary.constraints, ops.A), "constrain");
+  Vec x, y_mf, y_as;
+  MatCreateVecs(ops.A, &x, &y_mf);
+  VecDuplicate(y_mf, &y_as);
+  fill(x, 0.3);
+  MatMult(ops.A, x, y_as);
+  mg->apply_fine(x, y_mf);
+  EXPECT_LT(rel_diff(y_as, y_mf), 1e-12);
+  for (Vec* v : {&x, &y_mf, &y_as}) VecDestroy(v);
+}
+
 TEST(Multigrid, InterpolationIsConsistentForEveryIncidentCell) {
   // A body with holes, thin parts and an edge-only contact, so coarse cells share
   // positions and vertex copies are duplicated.
@@ -159,7 +258,8 @@ TEST(Multigrid, InterpolationIsConsistentForEveryIncidentCell) {
     ASSERT_GE(mg->num_levels(), 3);
     std::int64_t shared = 0;
     for (int l = 0; l + 1 < mg->num_levels(); ++l) {
-      EXPECT_EQ(hierarchy::interpolation_mismatch(mg->level(l), mg->level(l + 1)), 0.0) << "level " << l;
+      EXPECT_EQ(hierarchy::interpolation_mismatch(mg->level(l), mg->level(l + 1)), 0.0)
+          << "level " << l;
       shared += mg->level(l + 1).copies.num_copies;
     }
     EXPECT_GT(shared, 0);
@@ -168,7 +268,8 @@ TEST(Multigrid, InterpolationIsConsistentForEveryIncidentCell) {
 
 TEST(Multigrid, VCycleIsSymmetric) {
   for (const char* smoother : {"gs", "chebyshev"}) {
-    const std::string options = std::string("-gmg_levels 3 -gmg_presmooth 2 -gmg_postsmooth 2 -gmg_smoother ") + smoother;
+    const std::string options =
+        std::string("-gmg_levels 3 -gmg_presmooth 2 -gmg_postsmooth 2 -gmg_smoother ") + smoother;
     Operators ops(kBlock, {1.0, 3.0, true}, options.c_str());
     ASSERT_EQ(ops.job.sim->multigrid()->num_levels(), 3);
     auto* mg = ops.job.sim->multigrid();
@@ -195,13 +296,15 @@ TEST(Multigrid, VCycleIsSymmetric) {
 /// GMG-CG iterations to rtol 1e-8 for a cube of n^3 cells clamped at the bottom, pushed
 /// sideways on top.
 PetscInt cube_iterations(int n, const char* extra = nullptr) {
-  const std::string yaml = "lattice: {h: " + std::to_string(1.0 / n) + ", dims: [" + std::to_string(n) + ", " +
-                           std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
-                           "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
-                           "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]\n"
-                           "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}}]\n"
-                           "  traction: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}, value: [0.01, 0, -0.01]}]\n"
-                           "solver: {type: gmg, rtol: 1.0e-8}\n";
+  const std::string yaml =
+      "lattice: {h: " + std::to_string(1.0 / n) + ", dims: [" + std::to_string(n) + ", " +
+      std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
+      "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]\n"
+      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}}]\n"
+      "  traction: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}, value: [0.01, 0, "
+      "-0.01]}]\n"
+      "solver: {type: gmg, rtol: 1.0e-8}\n";
   Job job(PETSC_COMM_WORLD, yaml, 16, extra);
   job.sim->run_static(job.state, {});
   PetscInt its;
@@ -211,7 +314,8 @@ PetscInt cube_iterations(int n, const char* extra = nullptr) {
 
 TEST(Multigrid, CubeConvergenceIsIndependentOfResolution) {
   const PetscInt i16 = cube_iterations(16), i32 = cube_iterations(32), i64 = cube_iterations(64);
-  std::printf("GMG-CG iterations to 1e-8: 16^3 %d, 32^3 %d, 64^3 %d\n", int(i16), int(i32), int(i64));
+  std::printf("GMG-CG iterations to 1e-8: 16^3 %d, 32^3 %d, 64^3 %d\n", int(i16), int(i32),
+              int(i64));
   EXPECT_LE(i32, 15);
   EXPECT_LE(i64 - i16, 3);
   // The Gauss-Seidel smoother, V(1,1), meets the same bounds.
@@ -232,18 +336,22 @@ PetscInt static_iterations(const std::string& yaml, int superblock = 8) {
 
 TEST(Multigrid, BunnyConvergesWithin25Iterations) {
   // The Stanford bunny, 10 cm tall, ~112k cells, glued at its base, under gravity.
-  const std::string yaml = std::string("lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: 0.0012}\n") +
-                           "materials: {tissue: {E: 1.0e5, nu: 0.3, rho: 1050}}\n"
-                           "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
-                           "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, 0]}}}]\n"
-                           "  gravity: [0, -9.81, 0]\n"
-                           "solver: {type: gmg, rtol: 1.0e-8}\n";
+  const std::string yaml =
+      std::string(
+          "lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: 0.0012}\n") +
+      "materials: {tissue: {E: 1.0e5, nu: 0.3, rho: 1050}}\n"
+      "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR
+      "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
+      "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, 0]}}}]\n"
+      "  gravity: [0, -9.81, 0]\n"
+      "solver: {type: gmg, rtol: 1.0e-8}\n";
   Job job(PETSC_COMM_WORLD, yaml);
   ASSERT_GE(job.model.lattice.num_cells(), 100000);
   job.sim->run_static(job.state, {});
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);
-  std::printf("bunny: %d cells, %d GMG-CG iterations\n", int(job.model.lattice.num_cells()), int(its));
+  std::printf("bunny: %d cells, %d GMG-CG iterations\n", int(job.model.lattice.num_cells()),
+              int(its));
   EXPECT_LE(its, 25);
 }
 
@@ -253,14 +361,17 @@ TEST(Multigrid, BarsTouchingAlongAnEdgeConvergeLikeOneBar) {
   auto deck = [](const std::string& bodies) {
     return "lattice: {h: 0.025, dims: [40, 8, 8]}\n"
            "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1}}\n"
-           "geometry:\n" + bodies +
+           "geometry:\n" +
+           bodies +
            "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
            "  gravity: [0, 0, -9.81]\n"
            "solver: {type: gmg, rtol: 1.0e-8}\n";
   };
-  const auto one = static_iterations(deck("  - add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}\n"));
-  const auto two = static_iterations(deck("  - add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}\n"
-                                          "  - add: {box: {min: [0, 0.1, 0.1], max: [1, 0.2, 0.2]}}\n"));
+  const auto one =
+      static_iterations(deck("  - add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}\n"));
+  const auto two =
+      static_iterations(deck("  - add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}\n"
+                             "  - add: {box: {min: [0, 0.1, 0.1], max: [1, 0.2, 0.2]}}\n"));
   std::printf("one bar %d iterations, two edge-touching bars %d\n", int(one), int(two));
   EXPECT_LE(two, one + 2);
 }
