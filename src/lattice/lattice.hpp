@@ -14,6 +14,19 @@ namespace hexcut::lattice {
 /// Link bits: cell connected to its +x, +y, +z face neighbour.
 enum LinkBit : std::uint8_t { kLinkX = 1, kLinkY = 2, kLinkZ = 4 };
 
+/// Hermite data of a link a blade has cut (design.md §3, §6): the link from `cell` to
+/// its + neighbour in direction `dir` was crossed at parameter t along the segment from
+/// this cell's centre to the neighbour's (both in the configuration at the time of the
+/// cut), by a blade with unit normal `normal` (reference frame). Cut ids start at 1
+/// (0 is the original boundary in surface output).
+struct CutLink {
+  std::int32_t cell = -1;
+  std::int32_t dir = 0;
+  double t = 0.5;
+  std::array<double, 3> normal{0.0, 0.0, 0.0};
+  std::int32_t cut_id = 0;
+};
+
 struct Lattice {
   LatticeSpec spec;
   std::vector<std::array<std::int32_t, 3>> ijk;  // per cell: lattice index
@@ -23,6 +36,7 @@ struct Lattice {
   std::vector<double> density;                   // per cell: rho [kg/m^3]
   std::vector<std::uint8_t> links;               // per cell: LinkBit mask
   std::vector<std::int32_t> cell_at;             // dense lattice index -> cell, -1 = empty
+  std::vector<CutLink> cut_links;                // links cleared by cuts, in cutting order
 
   std::int32_t num_cells() const { return std::int32_t(ijk.size()); }
   /// Cell at (i,j,k), or -1 when empty or outside the lattice.
