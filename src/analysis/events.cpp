@@ -12,6 +12,8 @@ const Events& events() {
     PetscLogEventRegister("hexcutSolve", id, &r.solve);
     PetscLogEventRegister("hexcutStress", id, &r.stress);
     PetscLogEventRegister("hexcutOutput", id, &r.output);
+    // Link tests, topology rebuild, state transfer and the new solver/hierarchy.
+    PetscLogEventRegister("hexcutCut", id, &r.cut);
     return r;
   }();
   return e;

@@ -6,7 +6,7 @@
 namespace hexcut::analysis {
 
 struct Events {
-  PetscLogEvent setup, assembly, solve, stress, output;
+  PetscLogEvent setup, assembly, solve, stress, output, cut;
 };
 
 /// Registers the events once (idempotent) and returns them.

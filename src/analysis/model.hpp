@@ -21,9 +21,9 @@ struct Model {
   topology::VertexCopies copies;
   topology::Partition partition;
   topology::DofLayout layout;
-  DM dm = nullptr;             // global/local vectors and ghost exchange
-  Vec coordinates = nullptr;   // owned reference positions (bs 3)
-  assembly::CellData cells;    // operator data of the local cells
+  DM dm = nullptr;            // global/local vectors and ghost exchange
+  Vec coordinates = nullptr;  // owned reference positions (bs 3)
+  assembly::CellData cells;   // operator data of the local cells
   assembly::Boundary boundary;
 };
 
@@ -34,5 +34,11 @@ lattice::Lattice build_lattice(const deck::Deck& deck);
 /// Builds the whole model on `comm`. `superblock` = cells per super-block side.
 PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model);
 PetscErrorCode destroy_model(Model* model);
+
+/// After the lattice's links changed (a cut): rebuilds vertex copies, DOF layout, DM,
+/// reference positions, cell data and boundary data. The cells keep their ranks (their
+/// super-blocks do not move); a new copy goes to the rank of its lowest-numbered cell.
+/// model->dm and model->coordinates must have been released (or handed over) before.
+PetscErrorCode rebuild_topology(MPI_Comm comm, const deck::Deck& deck, Model* model);
 
 }  // namespace hexcut::analysis

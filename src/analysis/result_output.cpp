@@ -23,35 +23,50 @@ output::Slab even_slab(MPI_Comm comm, std::int64_t n) {
 
 /// The mesh tables of this rank's canonical slabs: they are computed directly from the
 /// replicated lattice and copies, so no communication is needed.
-output::ResultWriter create_writer(MPI_Comm comm, const Model& M, const deck::Deck& deck,
-                                   const std::string& path, const std::string& command_line) {
-  const auto& L = M.lattice;
+struct MeshTables {
+  std::vector<double> positions;
+  std::vector<std::int64_t> connectivity;
+  std::vector<std::int32_t> ijk, material;
+  std::vector<double> youngs;
   output::MeshData mesh;
+};
+
+void fill_mesh_tables(MPI_Comm comm, const Model& M, MeshTables* t) {
+  const auto& L = M.lattice;
+  auto& mesh = t->mesh;
   mesh.lattice = L.spec;
   mesh.points = even_slab(comm, M.copies.num_copies);
   mesh.cells = even_slab(comm, L.num_cells());
-  std::vector<double> positions(3 * mesh.points.local_rows);
+  t->positions.resize(3 * mesh.points.local_rows);
   for (std::int64_t i = 0; i < mesh.points.local_rows; ++i) {
     const auto& v = M.copies.vertex[mesh.points.row_offset + i];
-    for (int d = 0; d < 3; ++d) positions[3 * i + d] = L.spec.origin[d] + L.spec.h * v[d];
+    for (int d = 0; d < 3; ++d) t->positions[3 * i + d] = L.spec.origin[d] + L.spec.h * v[d];
   }
-  std::vector<std::int64_t> connectivity(8 * mesh.cells.local_rows);
-  std::vector<std::int32_t> ijk(3 * mesh.cells.local_rows), material(mesh.cells.local_rows);
-  std::vector<double> youngs(mesh.cells.local_rows);
+  t->connectivity.resize(8 * mesh.cells.local_rows);
+  t->ijk.resize(3 * mesh.cells.local_rows);
+  t->material.resize(mesh.cells.local_rows);
+  t->youngs.resize(mesh.cells.local_rows);
   for (std::int64_t i = 0; i < mesh.cells.local_rows; ++i) {
     const auto c = mesh.cells.row_offset + i;
-    for (int q = 0; q < 8; ++q) connectivity[8 * i + q] = M.copies.cell_corners[c][topology::kVtkHexOrder[q]];
-    for (int d = 0; d < 3; ++d) ijk[3 * i + d] = L.ijk[c][d];
-    material[i] = L.material[c];
-    youngs[i] = L.youngs[c];
+    for (int q = 0; q < 8; ++q)
+      t->connectivity[8 * i + q] = M.copies.cell_corners[c][topology::kVtkHexOrder[q]];
+    for (int d = 0; d < 3; ++d) t->ijk[3 * i + d] = L.ijk[c][d];
+    t->material[i] = L.material[c];
+    t->youngs[i] = L.youngs[c];
   }
-  mesh.positions = positions.data();
-  mesh.connectivity = connectivity.data();
-  mesh.lattice_index = ijk.data();
-  mesh.material = material.data();
-  mesh.youngs_modulus = youngs.data();
+  mesh.positions = t->positions.data();
+  mesh.connectivity = t->connectivity.data();
+  mesh.lattice_index = t->ijk.data();
+  mesh.material = t->material.data();
+  mesh.youngs_modulus = t->youngs.data();
+}
+
+output::ResultWriter create_writer(MPI_Comm comm, const Model& M, const deck::Deck& deck,
+                                   const std::string& path, const std::string& command_line) {
+  MeshTables t;
+  fill_mesh_tables(comm, M, &t);
   output::RunInfo run{deck.text, command_line};
-  return output::ResultWriter::create(path, comm, mesh, run);
+  return output::ResultWriter::create(path, comm, t.mesh, run);
 }
 
 }  // namespace
@@ -123,38 +138,60 @@ ResultOutput::ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& 
       deck_(deck),
       writer_(restart ? output::ResultWriter::open(path, comm)
                       : create_writer(comm, model, deck, path, command_line)) {
+  create_scatters();
   const auto& D = model.layout;
-  check_petsc(topology::create_natural_scatter(comm, D.num_global_copies,
-                                         std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
-                                         D.first_owned_block(), 3, &points_),
-        "create_natural_scatter");
-  const PetscInt n_local = PetscInt(D.cells.size());
-  MPI_Exscan(&n_local, &first_local_cell_, 1, MPIU_INT, MPI_SUM, comm);
-  if (D.rank == 0) first_local_cell_ = 0;
-  if (restart && (writer_.num_points() != D.num_global_copies || writer_.num_cells() != model.lattice.num_cells()))
-    throw InputError(path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) + " points, " +
-                     std::to_string(writer_.num_cells()) + " cells) does not match this deck's");
+  if (restart && (writer_.num_points() != D.num_global_copies ||
+                  writer_.num_cells() != model.lattice.num_cells()))
+    throw InputError(path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) +
+                     " points, " + std::to_string(writer_.num_cells()) +
+                     " cells) does not match this deck's");
 }
 
 ResultOutput::~ResultOutput() {
+  destroy_scatters();
+}
+
+void ResultOutput::create_scatters() {
+  const auto& D = model_.layout;
+  check_petsc(topology::create_natural_scatter(
+                  comm_, D.num_global_copies,
+                  std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
+                  D.first_owned_block(), 3, &points_),
+              "create_natural_scatter");
+  const PetscInt n_local = PetscInt(D.cells.size());
+  first_local_cell_ = 0;
+  MPI_Exscan(&n_local, &first_local_cell_, 1, MPIU_INT, MPI_SUM, comm_);
+  if (D.rank == 0) first_local_cell_ = 0;
+}
+
+void ResultOutput::destroy_scatters() {
   destroy_natural_scatter(&points_);
   for (auto& [b, s] : cells_) destroy_natural_scatter(&s);
+  cells_.clear();
+}
+
+void ResultOutput::topology_changed() {
+  destroy_scatters();
+  create_scatters();
+  mesh_pending_ = true;
 }
 
 topology::NaturalScatter& ResultOutput::cell_scatter(int block) {
   auto it = cells_.find(block);
   if (it != cells_.end()) return it->second;
   auto& s = cells_[block];
-  check_petsc(topology::create_natural_scatter(comm_, model_.lattice.num_cells(), model_.layout.cells,
-                                         first_local_cell_, block, &s),
-        "create_natural_scatter");
+  check_petsc(topology::create_natural_scatter(comm_, model_.lattice.num_cells(),
+                                               model_.layout.cells, first_local_cell_, block, &s),
+              "create_natural_scatter");
   return s;
 }
 
 void ResultOutput::write_point_vector(std::int64_t step, const std::string& name, Vec v,
                                       const std::string& unit) {
-  check_petsc(VecScatterBegin(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-  check_petsc(VecScatterEnd(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check_petsc(VecScatterBegin(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
+  check_petsc(VecScatterEnd(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
   const PetscScalar* a;
   check_petsc(VecGetArrayRead(points_.natural, &a), "VecGetArrayRead");
   writer_.write_point_field(step, name, 3, points_.row_begin, points_.rows, a, unit);
@@ -165,10 +202,13 @@ void ResultOutput::write_cell_values(std::int64_t step, const std::string& name,
                                      const std::vector<double>& values, const std::string& unit) {
   auto& s = cell_scatter(block);
   Vec local;
-  check_petsc(VecCreateMPIWithArray(comm_, block, PetscInt(values.size()), PETSC_DETERMINE, values.data(), &local),
-        "VecCreateMPIWithArray");
-  check_petsc(VecScatterBegin(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-  check_petsc(VecScatterEnd(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+  check_petsc(VecCreateMPIWithArray(comm_, block, PetscInt(values.size()), PETSC_DETERMINE,
+                                    values.data(), &local),
+              "VecCreateMPIWithArray");
+  check_petsc(VecScatterBegin(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
+  check_petsc(VecScatterEnd(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
   check_petsc(VecDestroy(&local), "VecDestroy");
   const PetscScalar* a;
   check_petsc(VecGetArrayRead(s.natural, &a), "VecGetArrayRead");
@@ -179,11 +219,19 @@ void ResultOutput::write_cell_values(std::int64_t step, const std::string& name,
 void ResultOutput::write_step(const State& s, bool corotational) {
   const auto& o = deck_.output;
   writer_.begin_step(s.step, s.time);
+  if (mesh_pending_) {
+    // The vertex copies were split by a cut: this step and the later ones use a new mesh.
+    MeshTables t;
+    fill_mesh_tables(comm_, model_, &t);
+    // TEMP writer_.write_mesh(s.step, t.mesh);
+    mesh_pending_ = false;
+  }
   if (o.has_field("displacement")) write_point_vector(s.step, "displacement", s.u, "m");
   if (o.has_field("velocity")) write_point_vector(s.step, "velocity", s.v, "m/s");
   if (o.has_field("acceleration")) write_point_vector(s.step, "acceleration", s.a, "m/s^2");
-  const bool any_stress = o.has_field("stress") || o.has_field("von_mises") || o.has_field("pressure") ||
-                          o.has_field("principal_stress") || o.has_field("principal_directions");
+  const bool any_stress = o.has_field("stress") || o.has_field("von_mises") ||
+                          o.has_field("pressure") || o.has_field("principal_stress") ||
+                          o.has_field("principal_directions");
   if (any_stress) {
     CellStressFields f;
     PetscLogEventBegin(events().stress, 0, 0, 0, 0);
@@ -192,7 +240,8 @@ void ResultOutput::write_step(const State& s, bool corotational) {
     if (o.has_field("stress")) write_cell_values(s.step, "stress", 6, f.sigma, "Pa");
     if (o.has_field("von_mises")) write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa");
     if (o.has_field("pressure")) write_cell_values(s.step, "pressure", 1, f.pressure, "Pa");
-    if (o.has_field("principal_stress")) write_cell_values(s.step, "principal_stress", 3, f.principal, "Pa");
+    if (o.has_field("principal_stress"))
+      write_cell_values(s.step, "principal_stress", 3, f.principal, "Pa");
     if (o.has_field("principal_directions"))
       write_cell_values(s.step, "principal_directions", 9, f.directions, "1");
   }
@@ -216,8 +265,11 @@ void ResultOutput::write_checkpoint(const State& s) {
   std::vector<double> u, v, a;
   const PetscScalar* p;
   auto gather = [&](Vec x, std::vector<double>& out) {
-    check_petsc(VecScatterBegin(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    check_petsc(VecScatterEnd(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check_petsc(
+        VecScatterBegin(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
+        "scatter");
+    check_petsc(VecScatterEnd(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
+                "scatter");
     check_petsc(VecGetArrayRead(points_.natural, &p), "VecGetArrayRead");
     out.assign(p, p + 3 * points_.rows);
     check_petsc(VecRestoreArrayRead(points_.natural, &p), "VecRestoreArrayRead");
@@ -225,19 +277,24 @@ void ResultOutput::write_checkpoint(const State& s) {
   gather(s.u, u);
   gather(s.v, v);
   gather(s.a, a);
-  writer_.write_checkpoint(s.step, s.time, points_.row_begin, points_.rows, u.data(), v.data(), a.data());
+  writer_.write_checkpoint(s.step, s.time, points_.row_begin, points_.rows, u.data(), v.data(),
+                           a.data());
 }
 
 void ResultOutput::read_checkpoint(State* s) {
   std::vector<double> u(3 * points_.rows), v(3 * points_.rows), a(3 * points_.rows);
-  const auto info = writer_.read_checkpoint(points_.row_begin, points_.rows, u.data(), v.data(), a.data());
+  const auto info =
+      writer_.read_checkpoint(points_.row_begin, points_.rows, u.data(), v.data(), a.data());
   auto scatter_back = [&](const std::vector<double>& slab, Vec x) {
     PetscScalar* p;
     check_petsc(VecGetArray(points_.natural, &p), "VecGetArray");
     std::copy(slab.begin(), slab.end(), p);
     check_petsc(VecRestoreArray(points_.natural, &p), "VecRestoreArray");
-    check_petsc(VecScatterBegin(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE), "scatter");
-    check_petsc(VecScatterEnd(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE), "scatter");
+    check_petsc(
+        VecScatterBegin(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE),
+        "scatter");
+    check_petsc(VecScatterEnd(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE),
+                "scatter");
   };
   scatter_back(u, s->u);
   scatter_back(v, s->v);

@@ -35,8 +35,8 @@ PetscErrorCode compute_stress(const Model& model, bool corotational, Vec u, Cell
 class ResultOutput {
  public:
   /// Creates a new result file (mesh + input written) or, with `restart`, re-opens it.
-  ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck,
-               const std::string& path, const std::string& command_line, bool restart);
+  ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck, const std::string& path,
+               const std::string& command_line, bool restart);
   ~ResultOutput();
   ResultOutput(const ResultOutput&) = delete;
   ResultOutput& operator=(const ResultOutput&) = delete;
@@ -44,6 +44,9 @@ class ResultOutput {
   const std::string& path() const { return writer_.path(); }
   output::ResultWriter& writer() { return writer_; }
 
+  /// The model's topology changed (a cut): the point tables are rebuilt, and the next
+  /// written step carries the new mesh.
+  void topology_changed();
   /// Writes one output step with the fields the deck asks for.
   void write_step(const State& s, bool corotational);
   void record_solve(std::int64_t step, double time, const solve::SolveRecord& r);
@@ -53,7 +56,10 @@ class ResultOutput {
 
  private:
   topology::NaturalScatter& cell_scatter(int block);
-  void write_point_vector(std::int64_t step, const std::string& name, Vec v, const std::string& unit);
+  void create_scatters();
+  void destroy_scatters();
+  void write_point_vector(std::int64_t step, const std::string& name, Vec v,
+                          const std::string& unit);
   void write_cell_values(std::int64_t step, const std::string& name, int block,
                          const std::vector<double>& values, const std::string& unit);
 
@@ -64,6 +70,7 @@ class ResultOutput {
   topology::NaturalScatter points_;
   std::map<int, topology::NaturalScatter> cells_;
   PetscInt first_local_cell_ = 0;  // PETSc-ordered cell offset of this rank
+  bool mesh_pending_ = false;      // topology changed since the last written step
 };
 
 }  // namespace hexcut::analysis

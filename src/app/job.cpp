@@ -5,8 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
+#include "analysis/cutting.hpp"
 #include "analysis/events.hpp"
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
@@ -29,9 +31,12 @@ double peak_memory_bytes() {
 
 std::string format_seconds(double s) {
   char buf[32];
-  if (s < 120) std::snprintf(buf, sizeof buf, "%.1f s", s);
-  else if (s < 7200) std::snprintf(buf, sizeof buf, "%.1f min", s / 60);
-  else std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
+  if (s < 120)
+    std::snprintf(buf, sizeof buf, "%.1f s", s);
+  else if (s < 7200)
+    std::snprintf(buf, sizeof buf, "%.1f min", s / 60);
+  else
+    std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
   return buf;
 }
 
@@ -76,10 +81,13 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   PetscTime(&t_start);
 
   PetscInt superblock = 8, max_steps = -1;
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_superblock", &superblock, nullptr), "options");
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_max_steps", &max_steps, nullptr), "options");
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_superblock", &superblock, nullptr),
+              "options");
+  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_max_steps", &max_steps, nullptr),
+              "options");
   if (superblock < 1 || (superblock & (superblock - 1)))
-    throw InputError("-hexcut_superblock must be a power of two, got " + std::to_string(superblock));
+    throw InputError("-hexcut_superblock must be a power of two, got " +
+                     std::to_string(superblock));
   check_petsc(solve::set_default_options(deck.solver), "set_default_options");
 
   an::Model model;
@@ -87,8 +95,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   check_petsc(an::build_model(comm, deck, int(superblock), &model), "build_model");
   PetscLogEventEnd(ev.setup, 0, 0, 0, 0);
   PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",
-              int(model.lattice.num_cells()), int(model.copies.num_copies), 3 * int(model.copies.num_copies),
-              int(model.boundary.constraints.global_count), model.layout.num_ranks);
+              int(model.lattice.num_cells()), int(model.copies.num_copies),
+              3 * int(model.copies.num_copies), int(model.boundary.constraints.global_count),
+              model.layout.num_ranks);
 
   const bool restart = !options.restart_path.empty();
   std::string path = options.restart_path;
@@ -96,31 +105,58 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     if (rank == 0) std::filesystem::create_directories(deck.output.directory);
     path = (std::filesystem::path(deck.output.directory) / (deck.output.name + ".h5")).string();
   }
+  const bool dynamic = deck.analysis.type == deck::Analysis::Type::dynamic;
+  an::State state;
+  check_petsc(an::create_state(model.dm, &state), "create_state");
   an::ResultOutput out(comm, model, deck, path, options.command_line, restart);
-  an::Simulation sim(comm, model, deck);
+  auto sim = std::make_unique<an::Simulation>(comm, model, deck);
   {
     KSPType ksp_type;
     PCType pc_type;
     PC pc;
-    check_petsc(KSPGetType(sim.ksp(), &ksp_type), "KSPGetType");
-    check_petsc(KSPGetPC(sim.ksp(), &pc), "KSPGetPC");
+    check_petsc(KSPGetType(sim->ksp(), &ksp_type), "KSPGetType");
+    check_petsc(KSPGetPC(sim->ksp(), &pc), "KSPGetPC");
     check_petsc(PCGetType(pc, &pc_type), "PCGetType");
-    PetscPrintf(comm, "hexcut: solver %s (KSP %s, PC %s), rtol %g\n", deck::to_string(deck.solver.type), ksp_type,
-                pc_type ? pc_type : "none", deck.solver.rtol);
+    PetscPrintf(comm, "hexcut: solver %s (KSP %s, PC %s), rtol %g\n",
+                deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
+                deck.solver.rtol);
   }
-  an::State state;
-  check_petsc(an::create_state(model.dm, &state), "create_state");
+  // Cuts (design.md §6). Static analyses apply every cut to the undeformed body before
+  // solving; dynamic ones apply each when its time comes, in the deformed configuration.
+  an::Cutter cutter(deck, model.lattice);
+  auto apply_cuts = [&](double t) {
+    PetscLogEventBegin(ev.cut, 0, 0, 0, 0);
+    const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
+    if (r.links > 0) {
+      sim.reset();
+      sim = std::make_unique<an::Simulation>(comm, model, deck);
+      out.topology_changed();
+    }
+    PetscLogEventEnd(ev.cut, 0, 0, 0, 0);
+    if (r.events == 0) return;
+    const auto pieces = an::find_pieces(comm, model);
+    PetscPrintf(comm,
+                "hexcut: t = %g s: %d cut event(s) disconnected %lld links; %d piece(s), %d vertex "
+                "copies\n",
+                t, r.events, (long long)r.links, int(pieces.size()), int(model.copies.num_copies));
+    for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", an::describe(p).c_str());
+  };
+  if (!restart) apply_cuts(dynamic ? 0.0 : std::numeric_limits<double>::infinity());
+  if (!dynamic) an::require_supported(an::find_pieces(comm, model));
 
-  const bool dynamic = deck.analysis.type == deck::Analysis::Type::dynamic;
   const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;
   if (restart) {
     out.read_checkpoint(&state);
     PetscPrintf(comm, "hexcut: restarting from %s at step %lld, t = %g s\n", path.c_str(),
                 (long long)state.step, state.time);
+    if (cutter.pending() && cutter.next_time() <= state.time)
+      throw InputError(
+          path + ": --restart after a cut is not supported yet (the checkpoint at t = " +
+          std::to_string(state.time) + " s follows the deck's first cut); rerun from the start");
   } else if (dynamic) {
-    sim.initial_acceleration(state);
+    sim->initial_acceleration(state);
     PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-    out.write_step(state, sim.corotational());
+    out.write_step(state, sim->corotational());
     PetscLogEventEnd(ev.output, 0, 0, 0, 0);
   }
   const std::int64_t first_step = state.step;
@@ -141,14 +177,15 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     PetscTime(&now);
     const double wall = now - t_loop;
     const double per_step = wall / double(s.step - first_step);
-    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  wall %s  eta %s\n", (long long)s.step,
-                (long long)total, s.time, (long long)last_its, last_res, format_seconds(wall).c_str(),
+    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  wall %s  eta %s\n",
+                (long long)s.step, (long long)total, s.time, (long long)last_its, last_res,
+                format_seconds(wall).c_str(),
                 format_seconds(per_step * double(total - s.step)).c_str());
     const bool last = s.step == total;
     const bool stop = max_steps > 0 && s.step - first_step >= max_steps && !last;
     if (last || stop || s.step % deck.output.every == 0) {
       PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-      out.write_step(s, sim.corotational());
+      out.write_step(s, sim->corotational());
       PetscLogEventEnd(ev.output, 0, 0, 0, 0);
     }
     const int ce = deck.output.checkpoint_every;
@@ -159,19 +196,31 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     }
   };
   try {
-    if (dynamic) sim.run_dynamic(state, obs);
-    else sim.run_static(state, obs);
+    if (dynamic) {
+      while (state.step < total) {
+        // Cuts due by the end of this step act on the configuration at its start; then
+        // the operator, preconditioner and output tables follow the new topology.
+        if (cutter.pending()) apply_cuts(state.time + deck.analysis.dt);
+        const auto rec = sim->newmark_step(state);
+        obs.on_solve(state, rec);
+        obs.on_step(state);
+      }
+    } else {
+      sim->run_static(state, obs);
+    }
   } catch (const std::logic_error&) {
     if (!stopped_early) throw;
-    PetscPrintf(comm, "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
-                (long long)max_steps, path.c_str());
+    PetscPrintf(
+        comm, "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
+        (long long)max_steps, path.c_str());
   }
   PetscLogDouble t_end;
   PetscTime(&t_end);
   double peak = peak_memory_bytes(), total_peak = 0;
   MPI_Allreduce(&peak, &total_peak, 1, MPI_DOUBLE, MPI_SUM, comm);
-  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s, peak memory %.1f MiB over all ranks)\n", out.path().c_str(),
-              out.writer().xdmf_path().c_str(), t_end - t_start, total_peak / (1024.0 * 1024.0));
+  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s, peak memory %.1f MiB over all ranks)\n",
+              out.path().c_str(), out.writer().xdmf_path().c_str(), t_end - t_start,
+              total_peak / (1024.0 * 1024.0));
   check_petsc(an::destroy_state(&state), "destroy_state");
   check_petsc(an::destroy_model(&model), "destroy_model");
 }

@@ -4,6 +4,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,23 @@ int material_index(const Context& c, const YAML::Node& n) {
 }
 
 // ---------------------------------------------------------------- shapes
+geometry::TriangleMesh load_mesh_entry(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "mesh", {"file", "scale", "translate"});
+  if (!n["file"]) c.fail(n, "mesh needs 'file'");
+  const std::string path = c.resolve(get_string(c, n["file"], "mesh.file"));
+  geometry::TriangleMesh mesh;
+  try {
+    mesh = geometry::load_triangle_mesh(path);
+  } catch (const InputError& e) {
+    c.fail(n["file"], std::string("cannot load mesh: ") + e.what());
+  }
+  const double scale = n["scale"] ? positive(c, n["scale"], "mesh.scale") : 1.0;
+  const Eigen::Vector3d shift =
+      n["translate"] ? get_vec3(c, n["translate"], "mesh.translate") : Eigen::Vector3d::Zero();
+  geometry::transform(mesh, scale, shift);
+  return mesh;
+}
+
 std::shared_ptr<const geometry::Shape> parse_shape_entry(const Context& c, const std::string& kind,
                                                          const YAML::Node& n) {
   try {
@@ -129,7 +147,8 @@ std::shared_ptr<const geometry::Shape> parse_shape_entry(const Context& c, const
       check_keys(c, n, "cylinder", {"start", "end", "radius"});
       if (!n["start"] || !n["end"] || !n["radius"])
         c.fail(n, "cylinder needs 'start', 'end' and 'radius'");
-      auto p0 = get_vec3(c, n["start"], "cylinder.start"), p1 = get_vec3(c, n["end"], "cylinder.end");
+      auto p0 = get_vec3(c, n["start"], "cylinder.start"),
+           p1 = get_vec3(c, n["end"], "cylinder.end");
       if ((p1 - p0).norm() == 0) c.fail(n, "cylinder.start and cylinder.end coincide");
       return geometry::make_cylinder(p0, p1, positive(c, n["radius"], "cylinder.radius"));
     }
@@ -150,19 +169,7 @@ std::shared_ptr<const geometry::Shape> parse_shape_entry(const Context& c, const
       return geometry::make_slab(get_vec3(c, n["point"], "plane.point"), nn.normalized(), tol);
     }
     if (kind == "mesh") {
-      check_keys(c, n, "mesh", {"file", "scale", "translate"});
-      if (!n["file"]) c.fail(n, "mesh needs 'file'");
-      const std::string path = c.resolve(get_string(c, n["file"], "mesh.file"));
-      geometry::TriangleMesh mesh;
-      try {
-        mesh = geometry::load_triangle_mesh(path);
-      } catch (const InputError& e) {
-        c.fail(n["file"], std::string("cannot load mesh: ") + e.what());
-      }
-      double scale = n["scale"] ? positive(c, n["scale"], "mesh.scale") : 1.0;
-      Eigen::Vector3d shift = n["translate"] ? get_vec3(c, n["translate"], "mesh.translate")
-                                             : Eigen::Vector3d::Zero();
-      geometry::transform(mesh, scale, shift);
+      auto mesh = load_mesh_entry(c, n);
       return geometry::make_mesh_solid(std::move(mesh));
     }
   } catch (const std::invalid_argument& e) {
@@ -179,12 +186,15 @@ LatticeSpec parse_lattice(const Context& c, const YAML::Node& n) {
   LatticeSpec s;
   if (!n["h"]) c.fail(n, "lattice needs 'h' (cell size in m)");
   s.h = positive(c, n["h"], "lattice.h");
-  if (n["dims"] && n["bounds"]) c.fail(n, "lattice: give either 'dims' (with 'origin') or 'bounds', not both");
+  if (n["dims"] && n["bounds"])
+    c.fail(n, "lattice: give either 'dims' (with 'origin') or 'bounds', not both");
   if (n["bounds"]) {
     const auto& b = n["bounds"];
-    if (!b.IsSequence() || b.size() != 2) c.fail(b, "lattice.bounds must be [[xmin,ymin,zmin],[xmax,ymax,zmax]]");
+    if (!b.IsSequence() || b.size() != 2)
+      c.fail(b, "lattice.bounds must be [[xmin,ymin,zmin],[xmax,ymax,zmax]]");
     auto lo = get_vec3(c, b[0], "lattice.bounds[0]"), hi = get_vec3(c, b[1], "lattice.bounds[1]");
-    if ((hi.array() <= lo.array()).any()) c.fail(b, "lattice.bounds: max must exceed min in every axis");
+    if ((hi.array() <= lo.array()).any())
+      c.fail(b, "lattice.bounds: max must exceed min in every axis");
     if (n["origin"]) c.fail(n["origin"], "lattice: 'origin' is implied by 'bounds'");
     s.origin = lo;
     for (int d = 0; d < 3; ++d) {
@@ -213,7 +223,8 @@ std::vector<Material> parse_materials(const Context& c, const YAML::Node& n) {
     m.name = kv.first.as<std::string>();
     const auto& v = kv.second;
     check_keys(c, v, "material '" + m.name + "'", {"E", "nu", "rho"});
-    if (!v["E"] || !v["nu"] || !v["rho"]) c.fail(v, "material '" + m.name + "' needs E, nu and rho");
+    if (!v["E"] || !v["nu"] || !v["rho"])
+      c.fail(v, "material '" + m.name + "' needs E, nu and rho");
     m.youngs_modulus = positive(c, v["E"], "E");
     m.poisson_ratio = get_double(c, v["nu"], "nu");
     if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5))
@@ -227,12 +238,14 @@ std::vector<Material> parse_materials(const Context& c, const YAML::Node& n) {
 }
 
 GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
-  check_keys(c, n, "image", {"file", "format", "dataset", "dims", "dtype", "endian", "origin",
-                             "spacing", "threshold", "labels", "material", "youngs_scale"});
+  check_keys(c, n, "image",
+             {"file", "format", "dataset", "dims", "dtype", "endian", "origin", "spacing",
+              "threshold", "labels", "material", "youngs_scale"});
   if (!n["file"]) c.fail(n, "image needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
   const std::string format = n["format"] ? get_string(c, n["format"], "image.format") : "raw";
-  Eigen::Vector3d origin = n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
+  Eigen::Vector3d origin =
+      n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
   if (!n["spacing"]) c.fail(n, "image needs 'spacing' (voxel size in m, 3 numbers)");
   Eigen::Vector3d spacing = get_vec3(c, n["spacing"], "image.spacing");
   if ((spacing.array() <= 0).any()) c.fail(n["spacing"], "image.spacing must be > 0");
@@ -264,11 +277,14 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
     const auto& l = n["labels"];
     check_map(c, l, "image.labels");
     s.kind = GeometryStep::Kind::image_labels;
-    for (const auto& kv : l) s.label_to_material[get_int(c, kv.first, "label")] = material_index(c, kv.second);
-    if (n["threshold"] || n["material"]) c.fail(n, "image: use either 'labels' or 'threshold'+'material'");
+    for (const auto& kv : l)
+      s.label_to_material[get_int(c, kv.first, "label")] = material_index(c, kv.second);
+    if (n["threshold"] || n["material"])
+      c.fail(n, "image: use either 'labels' or 'threshold'+'material'");
   } else if (n["threshold"]) {
     s.kind = GeometryStep::Kind::add;
-    s.shape = geometry::make_image_threshold(image, get_double(c, n["threshold"], "image.threshold"));
+    s.shape =
+        geometry::make_image_threshold(image, get_double(c, n["threshold"], "image.threshold"));
     if (!n["material"]) c.fail(n, "image with 'threshold' needs 'material'");
     s.material = material_index(c, n["material"]);
   } else if (n["youngs_scale"]) {
@@ -286,8 +302,10 @@ std::vector<GeometryStep> parse_geometry(const Context& c, const YAML::Node& n) 
   std::vector<GeometryStep> out;
   for (const auto& op : n) {
     check_keys(c, op, "geometry operation", {"add", "subtract", "assign", "image", "material"});
-    int verbs = int(bool(op["add"])) + bool(op["subtract"]) + bool(op["assign"]) + bool(op["image"]);
-    if (verbs != 1) c.fail(op, "each geometry operation needs exactly one of add, subtract, assign, image");
+    int verbs =
+        int(bool(op["add"])) + bool(op["subtract"]) + bool(op["assign"]) + bool(op["image"]);
+    if (verbs != 1)
+      c.fail(op, "each geometry operation needs exactly one of add, subtract, assign, image");
     if (op["image"]) {
       if (op["material"]) c.fail(op["material"], "put 'material' inside the image map");
       GeometryStep s = parse_image_step(c, op["image"]);
@@ -302,8 +320,9 @@ std::vector<GeometryStep> parse_geometry(const Context& c, const YAML::Node& n) 
     GeometryStep s;
     s.where = c.where(op);
     const char* verb = op["add"] ? "add" : op["subtract"] ? "subtract" : "assign";
-    s.kind = op["add"] ? GeometryStep::Kind::add
-             : op["subtract"] ? GeometryStep::Kind::subtract : GeometryStep::Kind::assign;
+    s.kind = op["add"]        ? GeometryStep::Kind::add
+             : op["subtract"] ? GeometryStep::Kind::subtract
+                              : GeometryStep::Kind::assign;
     const auto& body = op[verb];
     check_keys(c, body, std::string(verb), kShapeKinds);
     if (body.size() != 1) c.fail(body, std::string(verb) + " needs exactly one shape");
@@ -312,9 +331,12 @@ std::vector<GeometryStep> parse_geometry(const Context& c, const YAML::Node& n) 
     if (s.kind == GeometryStep::Kind::subtract) {
       if (op["material"]) c.fail(op["material"], "subtract takes no material");
     } else {
-      if (op["material"]) s.material = material_index(c, op["material"]);
-      else if (c.materials->size() == 1) s.material = 0;
-      else c.fail(op, std::string(verb) + " needs 'material' when several materials are defined");
+      if (op["material"])
+        s.material = material_index(c, op["material"]);
+      else if (c.materials->size() == 1)
+        s.material = 0;
+      else
+        c.fail(op, std::string(verb) + " needs 'material' when several materials are defined");
     }
     out.push_back(s);
   }
@@ -341,7 +363,8 @@ Selector parse_selector(const Context& c, const YAML::Node& n, const std::string
     }
   }
   if (shapes > 1) c.fail(n, what + ": give one shape (or 'all: true'), optionally with 'material'");
-  if (shapes == 0 && s.material < 0) c.fail(n, what + " selects nothing: give a shape, 'material' or 'all: true'");
+  if (shapes == 0 && s.material < 0)
+    c.fail(n, what + " selects nothing: give a shape, 'material' or 'all: true'");
   return s;
 }
 
@@ -395,7 +418,8 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
       s.selector = parse_selector(c, f["where"], "fixed.where");
       if (f["components"]) {
         const auto& comp = f["components"];
-        if (!comp.IsSequence() || comp.size() == 0) c.fail(comp, "components must be a list like [x, z]");
+        if (!comp.IsSequence() || comp.size() == 0)
+          c.fail(comp, "components must be a list like [x, z]");
         s.constrained = {false, false, false};
         for (const auto& cc : comp) s.constrained[component_index(c, cc)] = true;
       }
@@ -426,7 +450,8 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
     }
   }
   if (n["point_loads"]) {
-    if (!n["point_loads"].IsSequence()) c.fail(n["point_loads"], "boundary.point_loads must be a list");
+    if (!n["point_loads"].IsSequence())
+      c.fail(n["point_loads"], "boundary.point_loads must be a list");
     for (const auto& p : n["point_loads"]) {
       check_keys(c, p, "point load", {"at", "force", "scale"});
       if (!p["at"] || !p["force"]) c.fail(p, "point load needs 'at' [m] and 'force' [N]");
@@ -442,19 +467,127 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
   if (n["gravity"]) d.gravity = get_vec3(c, n["gravity"], "gravity");
 }
 
+std::vector<Eigen::Vector3d> get_points(const Context& c, const YAML::Node& n,
+                                        const std::string& what, std::size_t min_count) {
+  if (!n.IsSequence() || n.size() < min_count)
+    c.fail(n,
+           what + " must be a list of at least " + std::to_string(min_count) + " points [x, y, z]");
+  std::vector<Eigen::Vector3d> out;
+  for (const auto& p : n) out.push_back(get_vec3(c, p, what));
+  return out;
+}
+
+Blade parse_blade(const Context& c, const YAML::Node& n) {
+  check_keys(c, n, "blade", {"mesh", "polygon", "scalpel", "cylinder"});
+  if (n.size() != 1) c.fail(n, "a blade needs exactly one of mesh, polygon, scalpel, cylinder");
+  Blade b;
+  const auto kv = *n.begin();
+  const auto kind = kv.first.as<std::string>();
+  const auto& v = kv.second;
+  if (kind == "mesh") {
+    b.kind = Blade::Kind::mesh;
+    b.mesh = load_mesh_entry(c, v);
+  } else if (kind == "polygon") {
+    b.kind = Blade::Kind::polygon;
+    b.polygon = get_points(c, v, "polygon", 3);
+    // Planar: every corner within round-off of the plane of the first three.
+    const Eigen::Vector3d nrm = (b.polygon[1] - b.polygon[0]).cross(b.polygon[2] - b.polygon[0]);
+    double size = 0.0;
+    for (const auto& p : b.polygon) size = std::max(size, (p - b.polygon[0]).norm());
+    if (nrm.norm() <= 1e-12 * size * size)
+      c.fail(v, "polygon: the first three corners are collinear");
+    for (const auto& p : b.polygon)
+      if (std::abs(nrm.normalized().dot(p - b.polygon[0])) > 1e-9 * size)
+        c.fail(v, "polygon: the corners are not in one plane (use a mesh blade for curved blades)");
+    // Convex, corners in order: every turn has the sense of the first.
+    const std::size_t m = b.polygon.size();
+    for (std::size_t i = 0; i < m; ++i) {
+      const auto& p0 = b.polygon[i];
+      const auto& p1 = b.polygon[(i + 1) % m];
+      const auto& p2 = b.polygon[(i + 2) % m];
+      if ((p1 - p0).cross(p2 - p1).dot(nrm) < 0)
+        c.fail(v,
+               "polygon: the corners must be in order around a convex polygon (split others into "
+               "several cuts)");
+    }
+  } else if (kind == "scalpel") {
+    b.kind = Blade::Kind::scalpel;
+    check_keys(c, v, "scalpel", {"edge", "path"});
+    if (!v["edge"] || !v["path"])
+      c.fail(v, "scalpel needs 'edge' (two points) and 'path' (offsets)");
+    const auto edge = get_points(c, v["edge"], "scalpel.edge", 2);
+    if (edge.size() != 2) c.fail(v["edge"], "scalpel.edge must be exactly two points");
+    if ((edge[1] - edge[0]).norm() == 0) c.fail(v["edge"], "scalpel.edge has zero length");
+    b.edge = {edge[0], edge[1]};
+    b.path = get_points(c, v["path"], "scalpel.path", 2);
+  } else {
+    b.kind = Blade::Kind::cylinder;
+    check_keys(c, v, "cylinder", {"start", "end", "radius", "segments"});
+    for (const char* k : {"start", "end", "radius"})
+      if (!v[k]) c.fail(v, std::string("cylinder blade needs '") + k + "'");
+    b.start = get_vec3(c, v["start"], "cylinder.start");
+    b.end = get_vec3(c, v["end"], "cylinder.end");
+    if ((b.end - b.start).norm() == 0) c.fail(v, "cylinder.start and cylinder.end coincide");
+    b.radius = positive(c, v["radius"], "cylinder.radius");
+    if (v["segments"]) {
+      b.segments = get_int(c, v["segments"], "cylinder.segments");
+      if (b.segments < 3) c.fail(v["segments"], "cylinder.segments must be >= 3");
+    }
+  }
+  return b;
+}
+
+std::vector<Cut> parse_cuts(const Context& c, const YAML::Node& n) {
+  if (!n.IsSequence()) c.fail(n, "cuts must be a list of cuts");
+  std::vector<Cut> out;
+  for (const auto& e : n) {
+    check_keys(c, e, "cut", {"blade", "time", "window"});
+    if (!e["blade"]) c.fail(e, "a cut needs 'blade'");
+    Cut cut;
+    cut.where = c.where(e);
+    cut.blade = parse_blade(c, e["blade"]);
+    if (e["time"] && e["window"]) c.fail(e, "give either 'time' or 'window', not both");
+    if (e["time"]) {
+      cut.time = get_double(c, e["time"], "cut.time");
+      if (cut.time < 0) c.fail(e["time"], "cut.time must be >= 0");
+    }
+    if (e["window"]) {
+      const auto& w = e["window"];
+      if (cut.blade.kind != Blade::Kind::scalpel)
+        c.fail(w, "'window' applies to scalpel blades only (use 'time')");
+      if (!w.IsSequence() || w.size() != 2) c.fail(w, "window must be [begin, end] [s]");
+      cut.window_begin = get_double(c, w[0], "window[0]");
+      cut.window_end = get_double(c, w[1], "window[1]");
+      if (cut.window_begin < 0 || cut.window_end <= cut.window_begin)
+        c.fail(w, "window must satisfy 0 <= begin < end");
+      cut.swept = true;
+      cut.time = cut.window_end;
+    }
+    out.push_back(std::move(cut));
+  }
+  return out;
+}
+
 Analysis parse_analysis(const Context& c, const YAML::Node& n) {
-  check_keys(c, n, "analysis", {"type", "formulation", "load_steps", "tolerance", "max_iterations",
-                                "dt", "steps", "end_time", "rayleigh", "mass"});
+  check_keys(c, n, "analysis",
+             {"type", "formulation", "load_steps", "tolerance", "max_iterations", "dt", "steps",
+              "end_time", "rayleigh", "mass"});
   Analysis a;
   const auto type = n["type"] ? get_string(c, n["type"], "analysis.type") : "static";
-  if (type == "static") a.type = Analysis::Type::static_;
-  else if (type == "dynamic") a.type = Analysis::Type::dynamic;
-  else c.fail(n["type"], "analysis.type must be 'static' or 'dynamic'");
+  if (type == "static")
+    a.type = Analysis::Type::static_;
+  else if (type == "dynamic")
+    a.type = Analysis::Type::dynamic;
+  else
+    c.fail(n["type"], "analysis.type must be 'static' or 'dynamic'");
   if (n["formulation"]) {
     const auto f = get_string(c, n["formulation"], "analysis.formulation");
-    if (f == "linear") a.formulation = Analysis::Formulation::linear;
-    else if (f == "corotational") a.formulation = Analysis::Formulation::corotational;
-    else c.fail(n["formulation"], "analysis.formulation must be 'linear' or 'corotational'");
+    if (f == "linear")
+      a.formulation = Analysis::Formulation::linear;
+    else if (f == "corotational")
+      a.formulation = Analysis::Formulation::corotational;
+    else
+      c.fail(n["formulation"], "analysis.formulation must be 'linear' or 'corotational'");
   }
   if (n["load_steps"]) {
     a.load_steps = get_int(c, n["load_steps"], "analysis.load_steps");
@@ -469,22 +602,30 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
     if (!n["dt"]) c.fail(n, "dynamic analysis needs 'dt' [s]");
     a.dt = positive(c, n["dt"], "analysis.dt");
     if (n["steps"] && n["end_time"]) c.fail(n, "give either 'steps' or 'end_time', not both");
-    if (n["steps"]) a.steps = get_int(c, n["steps"], "analysis.steps");
-    else if (n["end_time"]) a.steps = int(std::llround(positive(c, n["end_time"], "analysis.end_time") / a.dt));
-    else c.fail(n, "dynamic analysis needs 'steps' or 'end_time'");
+    if (n["steps"])
+      a.steps = get_int(c, n["steps"], "analysis.steps");
+    else if (n["end_time"])
+      a.steps = int(std::llround(positive(c, n["end_time"], "analysis.end_time") / a.dt));
+    else
+      c.fail(n, "dynamic analysis needs 'steps' or 'end_time'");
     if (a.steps < 1) c.fail(n, "dynamic analysis needs at least one step");
     if (n["rayleigh"]) {
       const auto& r = n["rayleigh"];
-      if (!r.IsSequence() || r.size() != 2) c.fail(r, "rayleigh must be [alpha1 (mass), alpha2 (stiffness)]");
+      if (!r.IsSequence() || r.size() != 2)
+        c.fail(r, "rayleigh must be [alpha1 (mass), alpha2 (stiffness)]");
       a.rayleigh_mass = get_double(c, r[0], "rayleigh[0]");
       a.rayleigh_stiffness = get_double(c, r[1], "rayleigh[1]");
-      if (a.rayleigh_mass < 0 || a.rayleigh_stiffness < 0) c.fail(r, "rayleigh coefficients must be >= 0");
+      if (a.rayleigh_mass < 0 || a.rayleigh_stiffness < 0)
+        c.fail(r, "rayleigh coefficients must be >= 0");
     }
     if (n["mass"]) {
       const auto m = get_string(c, n["mass"], "analysis.mass");
-      if (m == "lumped") a.mass = Analysis::Mass::lumped;
-      else if (m == "consistent") a.mass = Analysis::Mass::consistent;
-      else c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
+      if (m == "lumped")
+        a.mass = Analysis::Mass::lumped;
+      else if (m == "consistent")
+        a.mass = Analysis::Mass::consistent;
+      else
+        c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
     }
   } else {
     for (const char* k : {"dt", "steps", "end_time", "rayleigh", "mass"})
@@ -498,16 +639,25 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
   Solver s;
   if (n["type"]) {
     const auto t = get_string(c, n["type"], "solver.type");
-    if (t == "cg-jacobi") s.type = Solver::Type::cg_jacobi;
-    else if (t == "hypre") s.type = Solver::Type::hypre;
-    else if (t == "gamg") s.type = Solver::Type::gamg;
-    else if (t == "direct") s.type = Solver::Type::direct;
-    else if (t == "gmg") s.type = Solver::Type::gmg;
-    else if (t == "gmg-cycles") s.type = Solver::Type::gmg_cycles;
-    else c.fail(n["type"], "solver.type must be one of gmg, gmg-cycles, cg-jacobi, hypre, gamg, direct");
+    if (t == "cg-jacobi")
+      s.type = Solver::Type::cg_jacobi;
+    else if (t == "hypre")
+      s.type = Solver::Type::hypre;
+    else if (t == "gamg")
+      s.type = Solver::Type::gamg;
+    else if (t == "direct")
+      s.type = Solver::Type::direct;
+    else if (t == "gmg")
+      s.type = Solver::Type::gmg;
+    else if (t == "gmg-cycles")
+      s.type = Solver::Type::gmg_cycles;
+    else
+      c.fail(n["type"],
+             "solver.type must be one of gmg, gmg-cycles, cg-jacobi, hypre, gamg, direct");
   }
   if (n["cycles"]) {
-    if (s.type != Solver::Type::gmg_cycles) c.fail(n["cycles"], "'cycles' applies only to solver type gmg-cycles");
+    if (s.type != Solver::Type::gmg_cycles)
+      c.fail(n["cycles"], "'cycles' applies only to solver type gmg-cycles");
     s.cycles = get_int(c, n["cycles"], "solver.cycles");
     if (s.cycles < 1) c.fail(n["cycles"], "solver.cycles must be >= 1");
   }
@@ -529,7 +679,8 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
         if (tok[0] == '-' && !(tok.size() > 1 && (std::isdigit(tok[1]) || tok[1] == '.'))) {
           s.petsc_options.push_back({tok, ""});
         } else {
-          if (s.petsc_options.empty()) c.fail(p, "petsc_options: value '" + tok + "' has no option name before it");
+          if (s.petsc_options.empty())
+            c.fail(p, "petsc_options: value '" + tok + "' has no option name before it");
           s.petsc_options.back().second = tok;
         }
       }
@@ -561,12 +712,13 @@ Output parse_output(const Context& c, const YAML::Node& n) {
   }
   if (n["checkpoint_every"]) {
     o.checkpoint_every = get_int(c, n["checkpoint_every"], "output.checkpoint_every");
-    if (o.checkpoint_every < 0) c.fail(n["checkpoint_every"], "output.checkpoint_every must be >= 0");
+    if (o.checkpoint_every < 0)
+      c.fail(n["checkpoint_every"], "output.checkpoint_every must be >= 0");
   }
   if (n["fields"]) {
-    static const std::set<std::string> known = {"displacement", "velocity", "acceleration", "stress",
-                                                "von_mises", "pressure", "principal_stress",
-                                                "principal_directions"};
+    static const std::set<std::string> known = {
+        "displacement", "velocity", "acceleration",     "stress",
+        "von_mises",    "pressure", "principal_stress", "principal_directions"};
     if (!n["fields"].IsSequence()) c.fail(n["fields"], "output.fields must be a list");
     o.fields.clear();
     for (const auto& f : n["fields"]) {
@@ -602,12 +754,18 @@ bool Output::has_field(const std::string& f) const {
 
 const char* to_string(Solver::Type t) {
   switch (t) {
-    case Solver::Type::cg_jacobi: return "cg-jacobi";
-    case Solver::Type::hypre: return "hypre";
-    case Solver::Type::gamg: return "gamg";
-    case Solver::Type::direct: return "direct";
-    case Solver::Type::gmg: return "gmg";
-    case Solver::Type::gmg_cycles: return "gmg-cycles";
+    case Solver::Type::cg_jacobi:
+      return "cg-jacobi";
+    case Solver::Type::hypre:
+      return "hypre";
+    case Solver::Type::gamg:
+      return "gamg";
+    case Solver::Type::direct:
+      return "direct";
+    case Solver::Type::gmg:
+      return "gmg";
+    case Solver::Type::gmg_cycles:
+      return "gmg-cycles";
   }
   return "?";
 }
@@ -623,9 +781,12 @@ Deck parse_deck(const std::string& text, const std::string& path) {
     throw InputError(path, e.mark.line + 1, "YAML syntax error: " + e.msg);
   }
   if (!root.IsMap()) throw InputError(path, 1, "the deck must be a YAML map of sections");
-  check_keys(c, root, "the deck", {"lattice", "materials", "geometry", "boundary", "analysis", "solver", "output"});
+  check_keys(
+      c, root, "the deck",
+      {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "solver", "output"});
   for (const char* required : {"lattice", "materials", "geometry"})
-    if (!root[required]) throw InputError(path, 1, std::string("missing section '") + required + "'");
+    if (!root[required])
+      throw InputError(path, 1, std::string("missing section '") + required + "'");
 
   Deck d;
   d.path = path;
@@ -636,12 +797,15 @@ Deck parse_deck(const std::string& text, const std::string& path) {
   c.materials = &d.materials;
   d.geometry = parse_geometry(c, root["geometry"]);
   if (root["boundary"]) parse_boundary(c, root["boundary"], d);
+  if (root["cuts"]) d.cuts = parse_cuts(c, root["cuts"]);
   if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
   if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
   if (root["output"]) d.output = parse_output(c, root["output"]);
   if (d.output.name.empty()) d.output.name = fs::path(path).stem().string();
   if (d.analysis.type == Analysis::Type::static_ && d.supports.empty())
-    throw InputError(path, c.line(root), "a static analysis needs supports (boundary.fixed); without them the stiffness is singular");
+    throw InputError(path, c.line(root),
+                     "a static analysis needs supports (boundary.fixed); without them the "
+                     "stiffness is singular");
   return d;
 }
 

@@ -13,6 +13,7 @@
 
 #include "common/lattice_spec.hpp"
 #include "geometry/shape.hpp"
+#include "geometry/triangle_mesh.hpp"
 #include "geometry/voxel_image.hpp"
 
 namespace hexcut::deck {
@@ -36,8 +37,8 @@ struct Material {
 struct GeometryStep {
   enum class Kind { add, subtract, assign, image_labels, image_youngs };
   Kind kind = Kind::add;
-  std::shared_ptr<const geometry::Shape> shape;  // add/subtract/assign
-  int material = 0;                              // add/assign
+  std::shared_ptr<const geometry::Shape> shape;       // add/subtract/assign
+  int material = 0;                                   // add/assign
   std::shared_ptr<const geometry::VoxelImage> image;  // image_* kinds
   std::map<int, int> label_to_material;               // image_labels
   double youngs_scale = 1.0;                          // image_youngs
@@ -93,8 +94,8 @@ struct Analysis {
   double tolerance = 1e-6;  // ||u_k+1 - u_k|| <= tolerance * ||u_k+1||
   int max_iterations = 50;
   // dynamic (Newmark beta=1/4, gamma=1/2)
-  double dt = 0.0;       // [s]
-  int steps = 0;         // number of time steps (from end_time / dt if given)
+  double dt = 0.0;                  // [s]
+  int steps = 0;                    // number of time steps (from end_time / dt if given)
   double rayleigh_mass = 0.0;       // alpha1 [1/s]
   double rayleigh_stiffness = 0.0;  // alpha2 [s]
   Mass mass = Mass::lumped;
@@ -111,13 +112,36 @@ struct Solver {
 
 struct Output {
   std::string directory = "results";
-  std::string name;  // default: deck file stem
-  int every = 1;     // write every N steps (static: the final state is always written)
+  std::string name;          // default: deck file stem
+  int every = 1;             // write every N steps (static: the final state is always written)
   int checkpoint_every = 0;  // 0 = only at the end
-  std::vector<std::string> fields{"displacement", "velocity", "acceleration", "stress",
-                                  "von_mises", "pressure", "principal_stress",
-                                  "principal_directions"};
+  std::vector<std::string> fields{
+      "displacement", "velocity", "acceleration",     "stress",
+      "von_mises",    "pressure", "principal_stress", "principal_directions"};
   bool has_field(const std::string& f) const;
+};
+
+/// A blade (design.md §6): the surface that disconnects the links it crosses.
+struct Blade {
+  enum class Kind { mesh, polygon, scalpel, cylinder };
+  Kind kind = Kind::polygon;
+  geometry::TriangleMesh mesh;                   // mesh: triangles as given (scaled, moved)
+  std::vector<Eigen::Vector3d> polygon;          // polygon: planar, >= 3 corners [m]
+  std::array<Eigen::Vector3d, 2> edge;           // scalpel: the cutting edge at path offset 0 [m]
+  std::vector<Eigen::Vector3d> path;             // scalpel: offsets of the edge, >= 2 [m]
+  Eigen::Vector3d start{0, 0, 0}, end{0, 0, 0};  // cylinder: ends of the axis [m]
+  double radius = 0.0;                           // cylinder [m]
+  int segments = 48;                             // cylinder: facets around the axis
+};
+
+/// A cut: a blade and when it acts. Cut ids are 1, 2, ... in deck order.
+struct Cut {
+  Blade blade;
+  double time =
+      0.0;  // [s]: acts at the first step ending at or after it (static: before the solve)
+  bool swept = false;  // scalpel over a window: path offset k is reached at
+  double window_begin = 0.0, window_end = 0.0;  // t0 + k (t1 - t0) / (n - 1) [s]
+  SourceLocation where;
 };
 
 struct Deck {
@@ -130,6 +154,7 @@ struct Deck {
   std::vector<Traction> tractions;
   std::vector<PointLoad> point_loads;
   Eigen::Vector3d gravity{0, 0, 0};  // [m/s^2]
+  std::vector<Cut> cuts;
   Analysis analysis;
   Solver solver;
   Output output;

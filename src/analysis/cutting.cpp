@@ -1,0 +1,200 @@
+#include "analysis/cutting.hpp"
+
+#include <cstdio>
+#include <numeric>
+
+#include "common/errors.hpp"
+#include "common/petsc_check.hpp"
+#include "cut/link_cut.hpp"
+
+namespace hexcut::analysis {
+
+Cutter::Cutter(const deck::Deck& deck, const lattice::Lattice& lattice)
+    : events_(cut::cut_schedule(deck.cuts)) {
+  if (!events_.empty()) tree_ = std::make_unique<cut::CellTree>(lattice);
+}
+
+void Cutter::skip_due(double t) {
+  while (next_ < events_.size() && events_[next_].time <= t + 1e-12 * (std::abs(t) + 1.0)) ++next_;
+}
+
+CutReport Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u) {
+  CutReport r;
+  const double due = t + 1e-12 * (std::abs(t) + 1.0);  // round-off in accumulated step times
+  if (next_ >= events_.size() || events_[next_].time > due) return r;
+  const auto centres = deformed_cell_centres(comm, model, u);
+  tree_->refit(model.lattice, centres);
+  // Every rank holds the whole lattice and all centres and runs the same deterministic
+  // search, so the links stay identical everywhere without exchanging hits.
+  for (; next_ < events_.size() && events_[next_].time <= due; ++next_) {
+    const auto& e = events_[next_];
+    const auto links =
+        cut::find_crossed_links(model.lattice, *tree_, centres, e.triangles, e.cut_id);
+    cut::cut_links(model.lattice, links);
+    r.links += std::int64_t(links.size());
+    ++r.events;
+  }
+  return r;
+}
+
+std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& M, Vec u) {
+  const auto& L = M.lattice;
+  const auto& D = M.layout;
+  std::vector<Eigen::Vector3d> centres(L.num_cells());
+  for (std::int32_t c = 0; c < L.num_cells(); ++c)
+    centres[c] = L.spec.cell_centre(L.ijk[c][0], L.ijk[c][1], L.ijk[c][2]);
+  if (!u) return centres;
+  // Each rank moves its own cells, then all ranks exchange the displacements.
+  Vec ul;
+  check_petsc(DMGetLocalVector(M.dm, &ul), "DMGetLocalVector");
+  check_petsc(DMGlobalToLocalBegin(M.dm, u, INSERT_VALUES, ul), "g2l");
+  check_petsc(DMGlobalToLocalEnd(M.dm, u, INSERT_VALUES, ul), "g2l");
+  const PetscScalar* a;
+  check_petsc(VecGetArrayRead(ul, &a), "VecGetArrayRead");
+  std::vector<double> mine(3 * D.cells.size(), 0.0);
+  for (std::size_t e = 0; e < D.cells.size(); ++e)
+    for (int q = 0; q < 8; ++q)
+      for (int d = 0; d < 3; ++d) mine[3 * e + d] += 0.125 * a[3 * D.cell_corners[e][q] + d];
+  check_petsc(VecRestoreArrayRead(ul, &a), "VecRestoreArrayRead");
+  check_petsc(DMRestoreLocalVector(M.dm, &ul), "DMRestoreLocalVector");
+  int size;
+  MPI_Comm_size(comm, &size);
+  int n = int(D.cells.size());
+  std::vector<int> counts(size), offsets(size + 1, 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<std::int32_t> ids(offsets[size]);
+  MPI_Allgatherv(D.cells.data(), n, MPI_INT32_T, ids.data(), counts.data(), offsets.data(),
+                 MPI_INT32_T, comm);
+  for (int r = 0; r < size; ++r) counts[r] *= 3, offsets[r] *= 3;
+  std::vector<double> disp(3 * ids.size());
+  MPI_Allgatherv(mine.data(), 3 * n, MPI_DOUBLE, disp.data(), counts.data(), offsets.data(),
+                 MPI_DOUBLE, comm);
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    centres[ids[k]] += Eigen::Vector3d(disp[3 * k], disp[3 * k + 1], disp[3 * k + 2]);
+  return centres;
+}
+
+PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M, State* s) {
+  PetscFunctionBeginUser;
+  // Keep what the state is expressed in: the old copies, layout and DM.
+  const topology::VertexCopies old_copies = std::move(M->copies);
+  const topology::DofLayout old_layout = std::move(M->layout);
+  DM old_dm = M->dm;
+  M->dm = nullptr;
+  PetscCall(VecDestroy(&M->coordinates));
+  PetscCall(rebuild_topology(comm, deck, M));
+  // Old values of every local old copy (owned + ghosts).
+  std::vector<std::int32_t> old_local(old_copies.num_copies, -1);
+  for (std::int32_t i = 0; i < old_layout.num_local(); ++i) old_local[old_layout.copies[i]] = i;
+  State fresh;
+  PetscCall(create_state(M->dm, &fresh));
+  for (auto [from, to] :
+       {std::pair{s->u, fresh.u}, std::pair{s->v, fresh.v}, std::pair{s->a, fresh.a}}) {
+    Vec ol;
+    PetscCall(DMGetLocalVector(old_dm, &ol));
+    PetscCall(DMGlobalToLocalBegin(old_dm, from, INSERT_VALUES, ol));
+    PetscCall(DMGlobalToLocalEnd(old_dm, from, INSERT_VALUES, ol));
+    const PetscScalar* o;
+    PetscScalar* n;
+    PetscCall(VecGetArrayRead(ol, &o));
+    PetscCall(VecGetArray(to, &n));
+    // A new copy is owned by the rank of its lowest-numbered incident cell; that cell is
+    // local here and was incident to the old copy at the same corner, so the old copy is
+    // in this rank's old local vector.
+    for (std::int32_t i = 0; i < M->layout.num_owned; ++i) {
+      const auto copy = M->layout.copies[i];
+      const auto cell = M->copies.first_cell[copy];
+      int q = 0;
+      while (M->copies.cell_corners[cell][q] != copy) ++q;
+      const auto k = old_local[old_copies.cell_corners[cell][q]];
+      if (k < 0) SETERRQ(comm, PETSC_ERR_PLIB, "cut: old vertex copy not local to the new owner");
+      for (int d = 0; d < 3; ++d) n[3 * i + d] = o[3 * k + d];
+    }
+    PetscCall(VecRestoreArray(to, &n));
+    PetscCall(VecRestoreArrayRead(ol, &o));
+    PetscCall(DMRestoreLocalVector(old_dm, &ol));
+  }
+  fresh.time = s->time;
+  fresh.step = s->step;
+  PetscCall(destroy_state(s));
+  *s = fresh;
+  PetscCall(DMDestroy(&old_dm));
+  PetscFunctionReturn(0);
+}
+
+CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t, Model* M,
+                         State* s) {
+  const auto r = cutter.cut_due(comm, t, *M, s->u);
+  if (r.links > 0) check_petsc(rebuild_after_cut(comm, deck, M, s), "rebuild_after_cut");
+  return r;
+}
+
+std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
+  const auto& L = M.lattice;
+  // Union-find over the links.
+  std::vector<std::int32_t> root(L.num_cells());
+  std::iota(root.begin(), root.end(), 0);
+  auto find = [&](std::int32_t c) {
+    while (root[c] != c) c = root[c] = root[root[c]];
+    return c;
+  };
+  for (std::int32_t c = 0; c < L.num_cells(); ++c)
+    for (int d = 0; d < 3; ++d) {
+      if (!L.linked(c, d)) continue;
+      const auto& p = L.ijk[c];
+      const auto nb = L.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+      if (nb < 0) continue;
+      const auto a = find(c), b = find(nb);
+      if (a != b) root[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<int> piece_of_root(L.num_cells(), -1);
+  std::vector<Piece> pieces;
+  std::vector<int> piece(L.num_cells());
+  for (std::int32_t c = 0; c < L.num_cells(); ++c) {
+    const auto r = find(c);
+    if (piece_of_root[r] < 0) {
+      piece_of_root[r] = int(pieces.size());
+      pieces.push_back({int(pieces.size()) + 1, 0, {}, false});
+    }
+    auto& p = pieces[piece_of_root[r]];
+    piece[c] = piece_of_root[r];
+    ++p.cells;
+    const auto& ijk = L.ijk[c];
+    p.box.extend(L.spec.vertex_position(ijk[0], ijk[1], ijk[2]));
+    p.box.extend(L.spec.vertex_position(ijk[0] + 1, ijk[1] + 1, ijk[2] + 1));
+  }
+  // Support: a prescribed DOF of one of the piece's copies (rows are owned here).
+  std::vector<int> supported(pieces.size(), 0);
+  const PetscInt first = 3 * M.layout.first_owned_block();
+  for (PetscInt row : M.boundary.constraints.rows) {
+    const auto copy = M.layout.copies[(row - first) / 3];
+    supported[piece[M.copies.first_cell[copy]]] = 1;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, supported.data(), int(supported.size()), MPI_INT, MPI_LOR, comm);
+  for (std::size_t k = 0; k < pieces.size(); ++k) pieces[k].supported = supported[k];
+  return pieces;
+}
+
+std::string describe(const Piece& p) {
+  char buf[256];
+  const auto& a = p.box.min();
+  const auto& b = p.box.max();
+  std::snprintf(buf, sizeof buf, "piece %d: %lld cells, box [%g, %g, %g] - [%g, %g, %g] m, %s",
+                p.id, (long long)p.cells, a.x(), a.y(), a.z(), b.x(), b.y(), b.z(),
+                p.supported ? "supported" : "unsupported");
+  return buf;
+}
+
+void require_supported(const std::vector<Piece>& pieces) {
+  std::string bad;
+  for (const auto& p : pieces)
+    if (!p.supported) bad += "\n  " + describe(p);
+  if (!bad.empty())
+    throw SolverError(
+        "static analysis with an unsupported piece (its stiffness is singular; fix it with "
+        "boundary.fixed, or run a dynamic analysis):" +
+        bad);
+}
+
+}  // namespace hexcut::analysis

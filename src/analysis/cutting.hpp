@@ -1,0 +1,75 @@
+// Cuts during a run (design.md §6, §2 "a cut event changes the lattice links and then
+// rebuilds topology"): the deck's cut events are applied in the current deformed
+// configuration, then vertex copies, DOF layout, DM, cell and boundary data are rebuilt
+// and the state (u, v, a) is carried from each old vertex copy to the new copies it
+// split into, so no state is lost and momentum is unchanged. Also the pieces (connected
+// components) of the body and whether each is supported.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "analysis/model.hpp"
+#include "analysis/result_output.hpp"
+#include "cut/blade.hpp"
+#include "cut/cell_tree.hpp"
+
+namespace hexcut::analysis {
+
+/// What one application of due cut events did (identical on every rank).
+struct CutReport {
+  int events = 0;          // cut events applied
+  std::int64_t links = 0;  // links disconnected
+};
+
+/// The deck's cut events and the tree that finds the links they cross.
+class Cutter {
+ public:
+  Cutter(const deck::Deck& deck, const lattice::Lattice& lattice);
+  bool pending() const { return next_ < events_.size(); }
+  /// Time of the next event (pending() must be true).
+  double next_time() const { return events_[next_].time; }
+  /// Applies every not yet applied event with time <= t to model.lattice's links, in the
+  /// configuration of the displacement u (global vector of the model's DM; null =
+  /// reference configuration). Collective. Topology is NOT rebuilt: call
+  /// rebuild_after_cut when report.links > 0.
+  CutReport cut_due(MPI_Comm comm, double t, Model& model, Vec u);
+  /// Skips (without cutting) the events with time <= t (restart bookkeeping).
+  void skip_due(double t);
+
+ private:
+  std::vector<cut::CutEvent> events_;
+  std::size_t next_ = 0;
+  std::unique_ptr<cut::CellTree> tree_;
+};
+
+/// Cell centres of every cell (all ranks get all of them), moved by the mean of their
+/// corners' displacement u (null: reference). Collective.
+std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& model, Vec u);
+
+/// Rebuilds the model's topology after its links changed (the cells keep their ranks)
+/// and carries the state over: every new vertex copy takes u, v, a of the old copy it
+/// came from. Collective.
+PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* model, State* state);
+
+/// Cutter::cut_due in the configuration of state->u, then rebuild_after_cut when links
+/// were cut (report.links > 0: the caller must rebuild what depends on the DM: the
+/// Simulation, ResultOutput::topology_changed). Collective.
+CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
+                         Model* model, State* state);
+
+/// A connected component of the body (cells joined by links).
+struct Piece {
+  int id = 0;  // 1-based, in order of the lowest cell
+  std::int64_t cells = 0;
+  Eigen::AlignedBox3d box;  // reference bounding box [m]
+  bool supported = false;   // some DOF of it is prescribed
+};
+/// The pieces of the body. Collective (support is known per rank).
+std::vector<Piece> find_pieces(MPI_Comm comm, const Model& model);
+/// "piece 2: 640 cells, box [0.1, 0, 0] - [0.5, 0.1, 0.1] m, unsupported".
+std::string describe(const Piece& p);
+/// Throws SolverError naming every unsupported piece (static analyses cannot solve them).
+void require_supported(const std::vector<Piece>& pieces);
+
+}  // namespace hexcut::analysis

@@ -1,0 +1,346 @@
+// Cuts against independent expectations: piece counts of crossing and overlapping cuts
+// as constructed, vertex copies split with the state carried over and momentum
+// conserved, a cut bar whose free piece falls with g while the clamped piece does not
+// notice, and (2 ranks) a cut across the partition boundary equal to 1 rank.
+#include <cmath>
+#include <functional>
+#include <map>
+
+#include "../analysis/fixture.hpp"
+#include "analysis/cutting.hpp"
+#include "assembly/operator.hpp"
+#include "common/errors.hpp"
+#include "cut/link_cut.hpp"
+
+namespace hexcut::testing {
+namespace {
+
+using analysis::Cutter;
+
+std::string vec(double x, double y, double z) {
+  char b[96];
+  std::snprintf(b, sizeof b, "[%.17g, %.17g, %.17g]", x, y, z);
+  return b;
+}
+
+/// A square polygon blade in the plane through `p` with normal axis `axis` (0,1,2),
+/// half-size r, as a deck cut entry.
+std::string plane_cut(int axis, double offset, double r, double time, double cx = 0.5,
+                      double cy = 0.5, double cz = 0.5) {
+  std::array<double, 3> c{cx, cy, cz};
+  c[axis] = offset;
+  const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+  std::string s = "  - blade: {polygon: [";
+  const double sa[4] = {-r, r, r, -r}, sb[4] = {-r, -r, r, r};
+  for (int k = 0; k < 4; ++k) {
+    auto p = c;
+    p[a] += sa[k];
+    p[b] += sb[k];
+    s += vec(p[0], p[1], p[2]) + (k < 3 ? ", " : "");
+  }
+  return s + "]}\n    time: " + std::to_string(time) + "\n";
+}
+
+/// Runs the deck's dynamic analysis with its cuts, as the hexcut driver does.
+void run_with_cuts(MPI_Comm comm, Job& job, const std::function<void(Job&)>& after_step = {}) {
+  Cutter cutter(job.deck, job.model.lattice);
+  auto cut = [&](double t) {
+    if (analysis::apply_due_cuts(comm, job.deck, cutter, t, &job.model, &job.state).links > 0) {
+      job.sim.reset();
+      job.sim = std::make_unique<analysis::Simulation>(comm, job.model, job.deck);
+    }
+  };
+  cut(0.0);
+  job.sim->initial_acceleration(job.state);
+  while (job.state.step < job.deck.analysis.steps) {
+    cut(job.state.time + job.deck.analysis.dt);
+    job.sim->newmark_step(job.state);
+    if (after_step) after_step(job);
+  }
+}
+
+int num_ranks() {
+  int size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  return size;
+}
+
+TEST(Cuts, CrossingAndOverlappingCutsGiveExactPieceCounts) {
+  // A 16x16x8 block; the x = 0.5 and y = 0.5 planes run through cell faces (t = 1/2).
+  const std::string base =
+      "lattice: {h: 0.0625, dims: [16, 16, 8]}\n"
+      "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 0.5]}}}]\n"
+      "analysis: {type: dynamic, dt: 0.001, steps: 1}\n"
+      "solver: {type: cg-jacobi}\n";
+  struct Case {
+    std::string cuts;
+    std::size_t pieces;
+  };
+  const std::vector<Case> cases = {
+      {plane_cut(0, 0.5, 2.0, 0.0), 2},
+      {plane_cut(0, 0.5, 2.0, 0.0) + plane_cut(1, 0.5, 2.0, 0.0), 4},
+      // The same plane twice (overlap) and a third cut crossing both.
+      {plane_cut(0, 0.5, 2.0, 0.0) + plane_cut(0, 0.5, 2.0, 0.0) + plane_cut(1, 0.5, 2.0, 0.0), 4},
+      // A horizontal cut through half the block only (x < 0.25): no new piece.
+      {plane_cut(0, 0.5, 2.0, 0.0) + plane_cut(2, 0.25, 0.25, 0.0, 0.0, 0.5), 2},
+      // ... and across the whole block at z = 0.25: every piece splits in two.
+      {plane_cut(0, 0.5, 2.0, 0.0) + plane_cut(1, 0.5, 2.0, 0.0) + plane_cut(2, 0.25, 2.0, 0.0), 8},
+  };
+  for (const auto& c : cases) {
+    Job job(PETSC_COMM_WORLD, base + "cuts:\n" + c.cuts);
+    Cutter cutter(job.deck, job.model.lattice);
+    const auto r =
+        analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 0.0, &job.model, &job.state);
+    const auto pieces = analysis::find_pieces(PETSC_COMM_WORLD, job.model);
+    EXPECT_EQ(pieces.size(), c.pieces) << c.cuts;
+    std::int64_t cells = 0;
+    for (const auto& p : pieces) {
+      cells += p.cells;
+      EXPECT_EQ(p.cells, 2048 / std::int64_t(c.pieces)) << analysis::describe(p);
+    }
+    EXPECT_EQ(cells, 2048);
+    // Every cut link is recorded once, whatever the overlaps.
+    EXPECT_EQ(std::int64_t(job.model.lattice.cut_links.size()), r.links);
+  }
+}
+
+/// A smooth field of position for the state.
+Eigen::Vector3d field(const Eigen::Vector3d& x, double k) {
+  return k * Eigen::Vector3d(std::sin(3 * x.x()) + 0.2, std::cos(2 * x.x() + x.y()),
+                             x.z() - 0.3 * x.x());
+}
+
+void set_field(Job& job, Vec v, double k) {
+  const auto& D = job.model.layout;
+  PetscScalar* a;
+  VecGetArray(v, &a);
+  for (std::int32_t i = 0; i < D.num_owned; ++i) {
+    const auto f = field(job.position(D.copies[i]), k);
+    for (int d = 0; d < 3; ++d) a[3 * i + d] = f[d];
+  }
+  VecRestoreArray(v, &a);
+}
+
+/// Total momentum sum_i (M v)_i with the model's mass matrix.
+Eigen::Vector3d momentum(Job& job, bool lumped) {
+  Vec Mv;
+  VecDuplicate(job.state.v, &Mv);
+  check_petsc(assembly::apply(job.model.dm, job.model.layout, job.model.cells, {0.0, 1.0, lumped},
+                              job.state.v, Mv),
+              "apply");
+  const PetscScalar* a;
+  PetscInt n;
+  VecGetLocalSize(Mv, &n);
+  VecGetArrayRead(Mv, &a);
+  double p[3] = {0, 0, 0};
+  for (PetscInt i = 0; i < n; ++i) p[i % 3] += a[i];
+  VecRestoreArrayRead(Mv, &a);
+  VecDestroy(&Mv);
+  MPI_Allreduce(MPI_IN_PLACE, p, 3, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+  return {p[0], p[1], p[2]};
+}
+
+TEST(Cuts, VertexCopiesSplitWithTheStateAndMomentumIsConserved) {
+  for (const char* mass : {"lumped", "consistent"}) {
+    const std::string yaml = std::string(
+                                 "lattice: {h: 0.05, dims: [20, 2, 2]}\n"
+                                 "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+                                 "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}}]\n"
+                                 "analysis: {type: dynamic, dt: 0.001, steps: 1, mass: ") +
+                             mass + "}\nsolver: {type: cg-jacobi}\ncuts:\n" +
+                             plane_cut(0, 0.5, 1.0, 0.0, 0, 0.05, 0.05);
+    Job job(PETSC_COMM_WORLD, yaml);
+    set_field(job, job.state.u, 1e-4);
+    set_field(job, job.state.v, 1.0);
+    set_field(job, job.state.a, 5.0);
+    const bool lumped = std::string(mass) == "lumped";
+    const auto p_before = momentum(job, lumped);
+    const auto copies_before = job.model.copies.num_copies;
+    Cutter cutter(job.deck, job.model.lattice);
+    const auto r =
+        analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 0.0, &job.model, &job.state);
+    EXPECT_EQ(r.links, 4);  // 2 x 2 cells across the bar
+    // The 3 x 3 lattice vertices on the cut face get a second copy each.
+    EXPECT_EQ(job.model.copies.num_copies, copies_before + 9);
+    // Every copy, old or new, carries the field value of its vertex.
+    for (auto [v, k] :
+         {std::pair{job.state.u, 1e-4}, std::pair{job.state.v, 1.0}, std::pair{job.state.a, 5.0}}) {
+      const auto values = job.canonical(v);
+      double worst = 0;
+      for (std::int32_t c = 0; c < job.model.copies.num_copies; ++c)
+        worst = std::max(worst,
+                         (Eigen::Vector3d(&values[3 * c]) - field(job.position(c), k)).norm() / k);
+      EXPECT_LT(worst, 1e-14) << mass;
+    }
+    const auto p_after = momentum(job, lumped);
+    EXPECT_LT((p_after - p_before).norm(), 1e-12 * p_before.norm()) << mass;
+    std::printf("%s mass: momentum before [%.15g %.15g %.15g], after [%.15g %.15g %.15g]\n", mass,
+                p_before.x(), p_before.y(), p_before.z(), p_after.x(), p_after.y(), p_after.z());
+  }
+}
+
+std::string bar_deck(double length, const std::string& extra) {
+  return "lattice: {h: 0.025, dims: [40, 4, 4]}\n"
+         "materials: {m: {E: 2.0e5, nu: 0.3, rho: 1000}}\n"
+         "geometry: [{add: {box: {min: [0, 0, 0], max: [" +
+         std::to_string(length) +
+         ", 0.1, 0.1]}}}]\n"
+         "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
+         "  gravity: [0, 0, -9.81]\n"
+         "analysis: {type: dynamic, dt: 0.002, steps: 40}\n"
+         "solver: {type: gmg, rtol: 1.0e-12}\n" +
+         extra;
+}
+
+TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
+  // Cut at x = 0.2 at t = 0, before the first step: the free part must fall rigidly,
+  // u_z = -g t^2 / 2 (Newmark's average acceleration is exact for constant acceleration),
+  // and the clamped part must move exactly like a bar that was only 0.2 long.
+  const double g = 9.81;
+  Job cut_bar(PETSC_COMM_WORLD,
+              bar_deck(1.0, "cuts:\n" + plane_cut(0, 0.2, 1.0, 0.0, 0, 0.05, 0.05)));
+  run_with_cuts(PETSC_COMM_WORLD, cut_bar);
+  Job short_bar(PETSC_COMM_WORLD, bar_deck(0.2, ""));
+  short_bar.sim->initial_acceleration(short_bar.state);
+  short_bar.sim->run_dynamic(short_bar.state, {});
+  const double t = cut_bar.state.time;
+  const auto u = cut_bar.canonical(cut_bar.state.u);
+  const auto u_short = short_bar.canonical(short_bar.state.u);
+  // Short bar values by lattice vertex.
+  std::map<std::array<std::int32_t, 3>, Eigen::Vector3d> clamped;
+  for (std::int32_t c = 0; c < short_bar.model.copies.num_copies; ++c)
+    clamped[short_bar.model.copies.vertex[c]] = Eigen::Vector3d(&u_short[3 * c]);
+  double fall_error = 0, clamped_error = 0, clamped_scale = 0;
+  int free_copies = 0;
+  const auto& L = cut_bar.model.lattice;
+  for (std::int32_t c = 0; c < cut_bar.model.copies.num_copies; ++c) {
+    const Eigen::Vector3d uc(&u[3 * c]);
+    const auto cell = cut_bar.model.copies.first_cell[c];
+    if (L.ijk[cell][0] >= 8) {  // free piece (cells right of x = 0.2)
+      ++free_copies;
+      fall_error = std::max(
+          fall_error, (uc - Eigen::Vector3d(0, 0, -0.5 * g * t * t)).norm() / (0.5 * g * t * t));
+    } else {
+      const auto& ref = clamped.at(cut_bar.model.copies.vertex[c]);
+      clamped_error = std::max(clamped_error, (uc - ref).norm());
+      clamped_scale = std::max(clamped_scale, ref.norm());
+    }
+  }
+  std::printf(
+      "free piece (%d copies): max relative deviation from -g t^2/2 = %.2e at t = %g s; clamped "
+      "piece vs "
+      "a 0.2 m bar: %.2e relative\n",
+      free_copies, fall_error, t, clamped_error / clamped_scale);
+  EXPECT_GT(free_copies, 0);
+  EXPECT_LT(fall_error, 0.01);
+  EXPECT_LT(clamped_error, 1e-6 * clamped_scale);
+}
+
+TEST(Cuts, FreePieceAcceleratesWithGravityAfterALateCut) {
+  // Cut at t = 0.02 s while the bar sags: after the cut, the free piece's mass-weighted
+  // velocity changes by -g per second (only gravity acts on it as a whole).
+  const double g = 9.81;
+  Job job(PETSC_COMM_WORLD, bar_deck(1.0, "cuts:\n" + plane_cut(0, 0.2, 1.0, 0.02, 0, 0.05, 0.05)));
+  std::vector<std::pair<double, double>> history;  // (t, v_z of the free piece's centre of mass)
+  run_with_cuts(PETSC_COMM_WORLD, job, [&](Job& j) {
+    if (j.state.time < 0.03) return;
+    const auto v = j.canonical(j.state.v);
+    // Lumped-mass weights: mass of a copy = rho h^3 / 8 per incident cell.
+    std::vector<int> incident(j.model.copies.num_copies, 0);
+    for (const auto& corners : j.model.copies.cell_corners)
+      for (auto c : corners) ++incident[c];
+    double m = 0, p = 0;
+    for (std::int32_t c = 0; c < j.model.copies.num_copies; ++c)
+      if (j.model.lattice.ijk[j.model.copies.first_cell[c]][0] >= 8)
+        m += incident[c], p += incident[c] * v[3 * c + 2];
+    history.emplace_back(j.state.time, p / m);
+  });
+  ASSERT_GE(history.size(), 2u);
+  const double accel = (history.back().second - history.front().second) /
+                       (history.back().first - history.front().first);
+  std::printf("free piece centre-of-mass acceleration after the cut: %.6f m/s^2 (g = %.2f)\n",
+              accel, g);
+  EXPECT_LT(std::abs(accel + g), 0.01 * g);
+}
+
+TEST(Cuts, UnsupportedPieceIsReportedForStaticAnalyses) {
+  const std::string yaml =
+      "lattice: {h: 0.05, dims: [20, 2, 2]}\n"
+      "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 0.1, 0.1]}}}]\n"
+      "boundary: {fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}], gravity: [0, "
+      "0, -9.81]}\n"
+      "solver: {type: cg-jacobi}\n"
+      "cuts:\n" +
+      plane_cut(0, 0.6, 1.0, 0.0, 0, 0.05, 0.05);
+  Job job(PETSC_COMM_WORLD, yaml);
+  Cutter cutter(job.deck, job.model.lattice);
+  analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model, &job.state);
+  const auto pieces = analysis::find_pieces(PETSC_COMM_WORLD, job.model);
+  ASSERT_EQ(pieces.size(), 2u);
+  EXPECT_TRUE(pieces[0].supported);
+  EXPECT_FALSE(pieces[1].supported);
+  EXPECT_EQ(pieces[1].cells, 32);
+  try {
+    analysis::require_supported(pieces);
+    ADD_FAILURE() << "expected a SolverError";
+  } catch (const SolverError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("piece 2: 32 cells, box [0.6, 0, 0] - [1, 0.1, 0.1] m, unsupported"),
+              std::string::npos)
+        << msg;
+  }
+}
+
+std::vector<double> cut_run(MPI_Comm comm, const std::string& yaml) {
+  Job job(comm, yaml, 4);
+  run_with_cuts(comm, job);
+  return job.canonical(job.state.u);
+}
+
+TEST(Cuts, TwoRanksEqualOneRankForACutAcrossThePartitionBoundary) {
+  if (num_ranks() < 2) GTEST_SKIP() << "needs mpiexec -n 2";
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  // Where does the partition split the bar? Cut exactly there (links between cells of
+  // different ranks), and with an inclined blade through cells of both ranks.
+  double x_split = 0;
+  {
+    Job probe(PETSC_COMM_WORLD, bar_deck(1.0, ""), 4);
+    const auto& L = probe.model.lattice;
+    for (std::int32_t c = 0; c < L.num_cells(); ++c) {
+      const auto nb = L.find(L.ijk[c][0] + 1, L.ijk[c][1], L.ijk[c][2]);
+      if (nb >= 0 && probe.model.partition.cell_rank[c] != probe.model.partition.cell_rank[nb])
+        x_split = L.spec.h * (L.ijk[c][0] + 1);
+    }
+  }
+  ASSERT_GT(x_split, 0.0);
+  const std::string inclined = "  - blade: {polygon: [" + vec(x_split - 0.1, -0.5, -0.5) + ", " +
+                               vec(x_split + 0.1, -0.5, 0.6) + ", " + vec(x_split + 0.1, 0.6, 0.6) +
+                               ", " + vec(x_split - 0.1, 0.6, -0.5) + "]}\n    time: 0.03\n";
+  const std::string yaml =
+      bar_deck(1.0, "cuts:\n" + plane_cut(0, x_split, 1.0, 0.01, 0, 0.05, 0.05) + inclined);
+  const auto parallel = cut_run(PETSC_COMM_WORLD, yaml);
+  MPI_Comm self;
+  MPI_Comm_split(PETSC_COMM_WORLD, rank == 0 ? 0 : MPI_UNDEFINED, 0, &self);
+  if (rank == 0) {
+    const auto serial = cut_run(self, yaml);
+    ASSERT_EQ(serial.size(), parallel.size());
+    double num = 0, den = 0;
+    for (std::size_t i = 0; i < serial.size(); ++i) {
+      num = std::max(num, std::abs(serial[i] - parallel[i]));
+      den = std::max(den, std::abs(serial[i]));
+    }
+    std::printf(
+        "cut at x = %g (partition boundary) + inclined cut: 1 vs 2 ranks max relative difference "
+        "%.2e\n",
+        x_split, num / den);
+    EXPECT_LT(num / den, 1e-8);
+    MPI_Comm_free(&self);
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+}
+
+}  // namespace
+}  // namespace hexcut::testing
