@@ -223,7 +223,7 @@ void ResultOutput::write_step(const State& s, bool corotational) {
     // The vertex copies were split by a cut: this step and the later ones use a new mesh.
     MeshTables t;
     fill_mesh_tables(comm_, model_, &t);
-    // TEMP writer_.write_mesh(s.step, t.mesh);
+    writer_.write_mesh(s.step, t.mesh);
     mesh_pending_ = false;
   }
   if (o.has_field("displacement")) write_point_vector(s.step, "displacement", s.u, "m");

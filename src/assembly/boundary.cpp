@@ -34,6 +34,7 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
                           const topology::VertexCopies& V, const topology::DofLayout& D) {
   Boundary B;
   B.gravity = deck.gravity;
+  B.centrifugal = deck.centrifugal;
   const PetscInt first = D.first_owned_block();
   auto position = [&](std::int32_t copy) {
     const auto& v = V.vertex[copy];
@@ -89,7 +90,8 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
         }
     }
     if (global_sum(comm, hits) == 0)
-      throw InputError(t.selector.where.prefix() + "this traction selects no boundary face of the body");
+      throw InputError(t.selector.where.prefix() +
+                       "this traction selects no boundary face of the body");
   }
 
   // Point loads: the nearest copy over all ranks (ties: lowest global index).
@@ -108,7 +110,8 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
     }
     MPI_Allreduce(&mine, &best, 1, MPI_DOUBLE_INT, MPI_MINLOC, comm);
     if (best.dist > L.spec.h)
-      throw InputError(pl.where.prefix() + "point load position is more than one cell (h) away from the body");
+      throw InputError(pl.where.prefix() +
+                       "point load position is more than one cell (h) away from the body");
     if (best.rank == D.rank) B.points.push_back({3 * (first + best_local), &pl});
   }
   return B;
@@ -130,9 +133,25 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellDat
         for (int d = 0; d < 3; ++d) a[3 * D.cell_corners[e][q] + d] += m * B.gravity[d];
     }
   }
+  if (B.centrifugal.active) {
+    // rho omega^2 r at the cell centre, lumped to the corners (one-point rule: the field
+    // is linear, so this is exact for the resultant).
+    const auto& cf = B.centrifugal;
+    for (std::size_t e = 0; e < D.cells.size(); ++e) {
+      const Eigen::Vector3d x =
+          Eigen::Vector3d(C.origin[e].data()) + Eigen::Vector3d::Constant(0.5 * C.h);
+      Eigen::Vector3d r = x - cf.point;
+      r -= r.dot(cf.axis) * cf.axis;
+      const Eigen::Vector3d f =
+          (scale * C.rho[e] * cf.omega * cf.omega * C.h * C.h * C.h / 8.0) * r;
+      for (int q = 0; q < 8; ++q)
+        for (int d = 0; d < 3; ++d) a[3 * D.cell_corners[e][q] + d] += f[d];
+    }
+  }
   // A constant traction on a bilinear face gives t h^2 / 4 at each face corner.
   for (const auto& face : B.faces) {
-    const Eigen::Vector3d tr = face.traction->value * face.traction->scale(t) * (scale * C.h * C.h / 4.0);
+    const Eigen::Vector3d tr =
+        face.traction->value * face.traction->scale(t) * (scale * C.h * C.h / 4.0);
     for (auto v : face.local_copies)
       for (int d = 0; d < 3; ++d) a[3 * v + d] += tr[d];
   }
@@ -169,8 +188,8 @@ PetscErrorCode constrain_matrix(const Constraints& c, Mat A) {
 }
 
 PetscErrorCode constrain_rhs(DM dm, const topology::DofLayout& D, const CellData& C,
-                             const OperatorWeights& w, const Constraints& c, double t,
-                             double scale, Vec b) {
+                             const OperatorWeights& w, const Constraints& c, double t, double scale,
+                             Vec b) {
   PetscFunctionBeginUser;
   Vec u0, Au0;
   PetscCall(DMGetGlobalVector(dm, &u0));

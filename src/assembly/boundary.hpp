@@ -15,8 +15,8 @@ namespace hexcut::assembly {
 
 /// The prescribed DOFs owned by this rank and their time functions.
 struct Constraints {
-  std::vector<PetscInt> rows;                        // global DOF indices, ascending
-  std::vector<const deck::TimeFunction*> value;      // per row
+  std::vector<PetscInt> rows;                    // global DOF indices, ascending
+  std::vector<const deck::TimeFunction*> value;  // per row
   PetscInt global_count = 0;
 };
 
@@ -29,12 +29,13 @@ struct Boundary {
     const deck::Traction* traction;
   };
   std::vector<Face> faces;
-  struct Point {  // a point load on an owned copy
+  struct Point {   // a point load on an owned copy
     PetscInt dof;  // global index of the x DOF
     const deck::PointLoad* load;
   };
   std::vector<Point> points;
   Eigen::Vector3d gravity{0, 0, 0};
+  deck::Centrifugal centrifugal;
 };
 
 /// Resolves the deck's selectors. Throws InputError when one selects nothing (on every
@@ -58,7 +59,7 @@ PetscErrorCode constrain_matrix(const Constraints& c, Mat A);
 /// b_fixed = u0, where the action of the unconstrained A is taken element by element.
 /// u0 = scale * prescribed values at time t.
 PetscErrorCode constrain_rhs(DM dm, const topology::DofLayout& layout, const CellData& cells,
-                             const OperatorWeights& w, const Constraints& c, double t,
-                             double scale, Vec b);
+                             const OperatorWeights& w, const Constraints& c, double t, double scale,
+                             Vec b);
 
 }  // namespace hexcut::assembly

@@ -408,7 +408,7 @@ int component_index(const Context& c, const YAML::Node& n) {
 }
 
 void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
-  check_keys(c, n, "boundary", {"fixed", "traction", "point_loads", "gravity"});
+  check_keys(c, n, "boundary", {"fixed", "traction", "point_loads", "gravity", "centrifugal"});
   if (n["fixed"]) {
     if (!n["fixed"].IsSequence()) c.fail(n["fixed"], "boundary.fixed must be a list");
     for (const auto& f : n["fixed"]) {
@@ -465,6 +465,19 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
     }
   }
   if (n["gravity"]) d.gravity = get_vec3(c, n["gravity"], "gravity");
+  if (n["centrifugal"]) {
+    const auto& f = n["centrifugal"];
+    check_keys(c, f, "centrifugal", {"point", "axis", "omega"});
+    if (!f["point"] || !f["axis"] || !f["omega"])
+      c.fail(f, "centrifugal needs 'point', 'axis' and 'omega' [rad/s]");
+    auto& cf = d.centrifugal;
+    cf.active = true;
+    cf.point = get_vec3(c, f["point"], "centrifugal.point");
+    cf.axis = get_vec3(c, f["axis"], "centrifugal.axis");
+    if (cf.axis.norm() == 0) c.fail(f["axis"], "centrifugal.axis must be nonzero");
+    cf.axis.normalize();
+    cf.omega = get_double(c, f["omega"], "centrifugal.omega");
+  }
 }
 
 std::vector<Eigen::Vector3d> get_points(const Context& c, const YAML::Node& n,

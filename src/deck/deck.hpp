@@ -121,6 +121,15 @@ struct Output {
   bool has_field(const std::string& f) const;
 };
 
+/// The body force of a steady spin about an axis, rho omega^2 r (r: distance vector
+/// from the axis), in the reference configuration.
+struct Centrifugal {
+  bool active = false;
+  Eigen::Vector3d point{0, 0, 0};  // a point of the axis [m]
+  Eigen::Vector3d axis{0, 0, 1};   // unit axis direction
+  double omega = 0.0;              // angular velocity [rad/s]
+};
+
 /// A blade (design.md §6): the surface that disconnects the links it crosses.
 struct Blade {
   enum class Kind { mesh, polygon, scalpel, cylinder };
@@ -154,6 +163,7 @@ struct Deck {
   std::vector<Traction> tractions;
   std::vector<PointLoad> point_loads;
   Eigen::Vector3d gravity{0, 0, 0};  // [m/s^2]
+  Centrifugal centrifugal;
   std::vector<Cut> cuts;
   Analysis analysis;
   Solver solver;

@@ -29,7 +29,10 @@ TEST(Static, PatchTestReproducesAffineField) {
   Eigen::Matrix3d G;
   G << 1e-3, 2e-3, -1e-3, 0.5e-3, -2e-3, 1.5e-3, 3e-3, 1e-3, 0.2e-3;
   const Eigen::Vector3d c(1e-3, -2e-3, 0.5e-3);
-  auto affine = [&](const Eigen::Vector3d& x) { Eigen::Vector3d u = G * x + c; return u; };
+  auto affine = [&](const Eigen::Vector3d& x) {
+    Eigen::Vector3d u = G * x + c;
+    return u;
+  };
 
   // Keep only vertices on the outer boundary: a copy is interior when all 8 cells
   // around its vertex exist.
@@ -44,7 +47,8 @@ TEST(Static, PatchTestReproducesAffineField) {
     const auto v = D.copies[i];
     const auto& p = job.model.copies.vertex[v];
     int around = 0;
-    for (int s = 0; s < 8; ++s) around += L.find(p[0] - 1 + (s & 1), p[1] - 1 + ((s >> 1) & 1), p[2] - 1 + (s >> 2)) >= 0;
+    for (int s = 0; s < 8; ++s)
+      around += L.find(p[0] - 1 + (s & 1), p[1] - 1 + ((s >> 1) & 1), p[2] - 1 + (s >> 2)) >= 0;
     if (around == 8) continue;
     const auto u = affine(job.position(v));
     for (int d = 0; d < 3; ++d) prescribed.push_back({3 * (D.first_owned_block() + i) + d, u[d]});
@@ -68,7 +72,8 @@ TEST(Static, PatchTestReproducesAffineField) {
     }
     const auto& p = job.model.copies.vertex[v];
     int around = 0;
-    for (int s = 0; s < 8; ++s) around += L.find(p[0] - 1 + (s & 1), p[1] - 1 + ((s >> 1) & 1), p[2] - 1 + (s >> 2)) >= 0;
+    for (int s = 0; s < 8; ++s)
+      around += L.find(p[0] - 1 + (s & 1), p[1] - 1 + ((s >> 1) & 1), p[2] - 1 + (s >> 2)) >= 0;
     interior += around == 8;
   }
   EXPECT_GT(interior, 10);
@@ -77,10 +82,12 @@ TEST(Static, PatchTestReproducesAffineField) {
   // The stress of an affine field is uniform: sigma = lambda tr(eps) I + 2 mu eps.
   analysis::CellStressFields f;
   check_petsc(analysis::compute_stress(job.model, false, job.state.u, &f), "stress");
-  const double E = 1000.0, nu = 0.3, lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
+  const double E = 1000.0, nu = 0.3, lambda = E * nu / ((1 + nu) * (1 - 2 * nu)),
+               mu = E / (2 * (1 + nu));
   const Eigen::Matrix3d eps = 0.5 * (G + G.transpose());
   const Eigen::Matrix3d sigma = lambda * eps.trace() * Eigen::Matrix3d::Identity() + 2 * mu * eps;
-  const double expected[6] = {sigma(0, 0), sigma(1, 1), sigma(2, 2), sigma(0, 1), sigma(1, 2), sigma(0, 2)};
+  const double expected[6] = {sigma(0, 0), sigma(1, 1), sigma(2, 2),
+                              sigma(0, 1), sigma(1, 2), sigma(0, 2)};
   for (std::size_t e = 0; e < f.von_mises.size(); ++e)
     for (int k = 0; k < 6; ++k) EXPECT_NEAR(f.sigma[6 * e + k], expected[k], 1e-10 * sigma.norm());
 }
@@ -108,11 +115,13 @@ TEST(Static, CantileverApproachesTimoshenko) {
     const double tip = -sum / n;
     errors.push_back((delta - tip) / delta);
     if (errors.size() > 1) {
-      EXPECT_LT(errors.back(), errors[errors.size() - 2]) << "no convergence toward beam theory at h=" << h;
+      EXPECT_LT(errors.back(), errors[errors.size() - 2])
+          << "no convergence toward beam theory at h=" << h;
     }
   }
   EXPECT_GT(errors.back(), -0.01);
-  EXPECT_LT(std::abs(errors.back()), 0.03) << "finest tip deflection off by " << 100 * errors.back() << "%";
+  EXPECT_LT(std::abs(errors.back()), 0.03)
+      << "finest tip deflection off by " << 100 * errors.back() << "%";
 }
 
 // Two cubes that touch only along an edge must not share vertices: clamping one and
@@ -157,7 +166,8 @@ TEST(Static, RigidRotationGivesNoForceAndNoStress) {
       "analysis: {type: static, formulation: corotational}\n"
       "solver: {type: direct}\n";
   Job job(PETSC_COMM_WORLD, yaml);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   // u = (R - I) x about an arbitrary centre: a rigid motion.
   const Eigen::Vector3d centre(0.1, 0.2, -0.3);
   const auto& D = job.model.layout;
@@ -179,12 +189,14 @@ TEST(Static, RigidRotationGivesNoForceAndNoStress) {
   VecRestoreArrayRead(ul, &ua);
   DMRestoreLocalVector(job.model.dm, &ul);
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Re(&job.model.cells.rotation[9 * e]);
+    Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Re(
+        &job.model.cells.rotation[9 * e]);
     EXPECT_LT((Re - R).norm(), 1e-12);
   }
   DMCreateGlobalVector(job.model.dm, &f);
   DMCreateGlobalVector(job.model.dm, &b);
-  check_petsc(assembly::apply(job.model.dm, D, job.model.cells, {1.0, 0.0, true}, job.state.u, f), "apply");
+  check_petsc(assembly::apply(job.model.dm, D, job.model.cells, {1.0, 0.0, true}, job.state.u, f),
+              "apply");
   VecSet(b, 0.0);
   check_petsc(assembly::add_corotational_rhs(job.model.dm, D, job.model.cells, 1.0, b), "rhs");
   PetscReal nb, nf;
@@ -205,6 +217,41 @@ TEST(Static, RigidRotationGivesNoForceAndNoStress) {
   EXPECT_GT(max_lin, 0.1 * scale);
   VecDestroy(&f);
   VecDestroy(&b);
+}
+
+}  // namespace
+}  // namespace hexcut::testing
+
+namespace hexcut::testing {
+namespace {
+
+TEST(Static, CentrifugalLoadResultantIsMassTimesOmegaSquaredTimesCentroidDistance) {
+  // A box off the spin axis: the resultant of rho omega^2 r is m omega^2 r_centroid
+  // (perpendicular part), whatever the discretization, because r is linear in x.
+  const std::string yaml =
+      "lattice: {h: 0.05, dims: [8, 4, 6]}\n"
+      "materials: {m: {E: 1.0e6, nu: 0.3, rho: 900}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [0.4, 0.2, 0.3]}}}]\n"
+      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
+      "  centrifugal: {point: [-0.1, 0.05, 0], axis: [0, 0, 2], omega: 30}\n";
+  Job job(PETSC_COMM_WORLD, yaml);
+  Vec f;
+  VecDuplicate(job.state.u, &f);
+  check_petsc(assembly::assemble_loads(job.model.dm, job.model.layout, job.model.cells,
+                                       job.model.boundary, 0.0, 1.0, f),
+              "assemble_loads");
+  PetscInt n;
+  VecGetLocalSize(f, &n);
+  const PetscScalar* a;
+  VecGetArrayRead(f, &a);
+  double sum[3] = {0, 0, 0};
+  for (PetscInt i = 0; i < n; ++i) sum[i % 3] += a[i];
+  VecRestoreArrayRead(f, &a);
+  VecDestroy(&f);
+  MPI_Allreduce(MPI_IN_PLACE, sum, 3, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+  const double mass = 900 * 0.4 * 0.2 * 0.3, w2 = 900.0;
+  const Eigen::Vector3d expected = mass * w2 * Eigen::Vector3d(0.2 + 0.1, 0.1 - 0.05, 0.0);
+  EXPECT_LT((Eigen::Vector3d(sum[0], sum[1], sum[2]) - expected).norm(), 1e-12 * expected.norm());
 }
 
 }  // namespace
