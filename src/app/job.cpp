@@ -134,6 +134,10 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     }
     PetscLogEventEnd(ev.cut, 0, 0, 0, 0);
     if (r.events == 0) return;
+    if (r.links == 0) {
+      PetscPrintf(comm, "hexcut: t = %g s: %d cut event(s) crossed no link\n", t, r.events);
+      return;
+    }
     const auto pieces = an::find_pieces(comm, model);
     PetscPrintf(comm,
                 "hexcut: t = %g s: %d cut event(s) disconnected %lld links; %d piece(s), %d vertex "
