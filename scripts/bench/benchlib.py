@@ -24,3 +24,19 @@ output: {{directory: {out}, name: {name}, fields: [displacement]}}
 def cantilever(n, solver, out, name="bench"):
     """Deck text of the cantilever with n cells across."""
     return CANTILEVER.format(h=0.125 / n, nx=8 * n, n=n, solver=solver, out=out, name=name)
+
+
+def residual_history(deck_text, work, name, extra=()):
+    """Runs one deck with -hexcut_residual_history; returns (wall times from the start
+    of set-up [s], residuals relative to the first) of its (last) solve."""
+    import subprocess
+
+    deck = os.path.join(work, f"{name}.yaml")
+    with open(deck, "w") as f:
+        f.write(deck_text)
+    hist = os.path.join(work, f"{name}.txt")
+    subprocess.run([HEXCUT, deck, "-hexcut_residual_history", hist, *extra], env=ENV, check=True,
+                   capture_output=True)
+    rows = [list(map(float, line.split())) for line in open(hist) if not line.startswith("#")]
+    r0 = rows[0][3] if rows[0][3] > 0 else 1.0
+    return [r[2] for r in rows], [r[3] / r0 for r in rows]

@@ -3,7 +3,6 @@ of scripts/bench/solvers), one rank, from -hexcut_residual_history; writes a PNG
   /usr/bin/python3 scripts/bench/residual_vs_time.py [--n 24] [--out doc/residual_vs_time.png]"""
 import argparse
 import os
-import subprocess
 import tempfile
 
 import matplotlib
@@ -11,7 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from benchlib import ENV, HEXCUT, ROOT, cantilever  # noqa: E402
+from benchlib import ROOT, cantilever, residual_history  # noqa: E402
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=24)
@@ -21,20 +20,12 @@ def main():
     fig, ax = plt.subplots(figsize=(7, 5))
     with tempfile.TemporaryDirectory() as work:
         for solver in a.solvers:
-            deck = os.path.join(work, f"{solver}.yaml")
-            with open(deck, "w") as f:
-                f.write(cantilever(a.n, solver, work, name="r"))
-            hist = os.path.join(work, f"{solver}.txt")
-            subprocess.run([HEXCUT, deck, "-hexcut_residual_history", hist], env=ENV, check=True, capture_output=True)
-            rows = [list(map(float, line.split())) for line in open(hist) if not line.startswith("#")]
-            r0 = rows[0][3] if rows[0][3] > 0 else 1.0
-            t = [r[2] for r in rows]
-            r = [r[3] / r0 for r in rows]
+            t, r = residual_history(cantilever(a.n, solver, work, name="r"), work, solver)
             if solver == "direct":  # one point at the end of the factorization + solve
                 ax.semilogy([0, t[-1]], [1, max(r[-1], 1e-16)], "k:", marker="o", label="direct (MUMPS)")
             else:
                 ax.semilogy(t, r, label=solver)
-            print(f"{solver:>10}: {len(rows) - 1:>5} iterations, {t[-1]:8.2f} s to {r[-1]:.1e}")
+            print(f"{solver:>10}: {len(t) - 1:>5} iterations, {t[-1]:8.2f} s to {r[-1]:.1e}")
     ax.set_xlabel("wall time from the start of set-up [s]")
     ax.set_ylabel("relative residual")
     ax.set_title(f"Cantilever, {3 * (8 * a.n + 1) * (a.n + 1) ** 2} DOFs, 1 rank")

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <numeric>
 
+#include "analysis/events.hpp"
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "cut/link_cut.hpp"
@@ -22,6 +23,7 @@ CutReport Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u) {
   CutReport r;
   const double due = t + 1e-12 * (std::abs(t) + 1.0);  // round-off in accumulated step times
   if (next_ >= events_.size() || events_[next_].time > due) return r;
+  PetscLogEventBegin(events().cut_links, 0, 0, 0, 0);
   const auto centres = deformed_cell_centres(comm, model, u);
   tree_->refit(model.lattice, centres);
   // Every rank holds the whole lattice and all centres and runs the same deterministic
@@ -34,6 +36,7 @@ CutReport Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u) {
     r.links += std::int64_t(links.size());
     ++r.events;
   }
+  PetscLogEventEnd(events().cut_links, 0, 0, 0, 0);
   return r;
 }
 
@@ -126,7 +129,11 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M
 CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t, Model* M,
                          State* s) {
   const auto r = cutter.cut_due(comm, t, *M, s->u);
-  if (r.links > 0) check_petsc(rebuild_after_cut(comm, deck, M, s), "rebuild_after_cut");
+  if (r.links > 0) {
+    PetscLogEventBegin(events().rebuild, 0, 0, 0, 0);
+    check_petsc(rebuild_after_cut(comm, deck, M, s), "rebuild_after_cut");
+    PetscLogEventEnd(events().rebuild, 0, 0, 0, 0);
+  }
   return r;
 }
 

@@ -8,24 +8,9 @@ namespace hexcut::analysis {
 lattice::Lattice build_lattice(const deck::Deck& deck) {
   auto grid = geometry::make_empty_grid(deck.lattice);
   for (const auto& step : deck.geometry) {
-    using Kind = deck::GeometryStep::Kind;
-    switch (step.kind) {
-      case Kind::add:
-        geometry::apply(grid, {geometry::OpMode::add, step.shape, step.material});
-        break;
-      case Kind::subtract:
-        geometry::apply(grid, {geometry::OpMode::subtract, step.shape, 0});
-        break;
-      case Kind::assign:
-        geometry::apply(grid, {geometry::OpMode::assign, step.shape, step.material});
-        break;
-      case Kind::image_labels:
-        geometry::apply_image_labels(grid, *step.image, step.label_to_material);
-        break;
-      case Kind::image_youngs:
-        geometry::apply_image_youngs(grid, *step.image, step.youngs_scale);
-        break;
-    }
+    if (step.kind == deck::GeometryStep::Kind::image_youngs)
+      geometry::apply_image_youngs(grid, *step.image, step.youngs_scale);
+    for (const auto& op : deck::membership_ops(step)) geometry::apply(grid, op);
   }
   if (geometry::count_filled(grid) == 0)
     throw InputError(deck.geometry.front().where.prefix() +

@@ -1,6 +1,10 @@
 #include "analysis/result_output.hpp"
 
+#include <algorithm>
+#include <type_traits>
+
 #include "analysis/events.hpp"
+#include "assembly/operator.hpp"
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
@@ -166,6 +170,7 @@ void ResultOutput::create_scatters() {
 
 void ResultOutput::destroy_scatters() {
   destroy_natural_scatter(&points_);
+  destroy_natural_scatter(&surface_points_);
   for (auto& [b, s] : cells_) destroy_natural_scatter(&s);
   cells_.clear();
 }
@@ -174,6 +179,97 @@ void ResultOutput::topology_changed() {
   destroy_scatters();
   create_scatters();
   mesh_pending_ = true;
+  surface_.reset();
+}
+
+void ResultOutput::write_surface(const State& s) {
+  const auto& M = model_;
+  const auto& D = M.layout;
+  if (!hermite_) {
+    // The geometry's crossings cost ~30 membership tests per boundary face (seconds for a
+    // mesh body): each rank does a share of the cells, and all gather the table.
+    int size;
+    MPI_Comm_size(comm_, &size);
+    const std::int64_t n = M.lattice.num_cells();
+    const auto mine = surface::boundary_hermite(M.lattice, deck::membership_ops(deck_),
+                                                std::int32_t(n * D.rank / size),
+                                                std::int32_t(n * (D.rank + 1) / size));
+    static_assert(std::is_trivially_copyable_v<surface::BoundaryCrossing>);
+    const int bytes = int(mine.faces.size() * sizeof(surface::BoundaryCrossing));
+    std::vector<int> counts(size), offsets(size + 1, 0);
+    MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_);
+    for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+    hermite_ = std::make_unique<surface::BoundaryHermite>();
+    hermite_->faces.resize(offsets[size] / sizeof(surface::BoundaryCrossing));
+    MPI_Allgatherv(mine.faces.data(), bytes, MPI_BYTE, hermite_->faces.data(), counts.data(),
+                   offsets.data(), MPI_BYTE, comm_);
+  }
+  if (!surface_) {
+    // Every rank builds the same surface from the replicated lattice (canonical vertex
+    // order); each moves the vertices of its own cells and a scatter puts them in order.
+    surface_ = std::make_unique<surface::Surface>(
+        surface::build_surface(M.lattice, M.copies, hermite_.get()));
+    surface_mine_.clear();
+    for (std::size_t v = 0; v < surface_->cell.size(); ++v)
+      if (M.partition.cell_rank[surface_->cell[v]] == D.rank)
+        surface_mine_.push_back(std::int32_t(v));
+    const PetscInt mine = PetscInt(surface_mine_.size());
+    PetscInt begin = 0;
+    MPI_Exscan(&mine, &begin, 1, MPIU_INT, MPI_SUM, comm_);
+    if (D.rank == 0) begin = 0;
+    destroy_natural_scatter(&surface_points_);
+    check_petsc(topology::create_natural_scatter(comm_, PetscInt(surface_->position.size()),
+                                                 surface_mine_, begin, 3, &surface_points_),
+                "create_natural_scatter");
+  }
+  const auto& S = *surface_;
+  // Deformed positions of this rank's vertices: trilinear in the owning cell's corners.
+  Vec moved;
+  check_petsc(VecCreateMPI(comm_, 3 * PetscInt(surface_mine_.size()), PETSC_DETERMINE, &moved),
+              "VecCreateMPI");
+  Vec ul;
+  check_petsc(DMGetLocalVector(M.dm, &ul), "DMGetLocalVector");
+  check_petsc(assembly::global_to_local(M.dm, s.u, ul), "global_to_local");
+  const PetscScalar* u;
+  PetscScalar* x;
+  check_petsc(VecGetArrayRead(ul, &u), "VecGetArrayRead");
+  check_petsc(VecGetArray(moved, &x), "VecGetArray");
+  for (std::size_t i = 0; i < surface_mine_.size(); ++i) {
+    const auto v = surface_mine_[i];
+    const auto e =
+        std::size_t(std::lower_bound(D.cells.begin(), D.cells.end(), S.cell[v]) - D.cells.begin());
+    const auto& xi = S.local[v];
+    for (int d = 0; d < 3; ++d) x[3 * i + d] = S.position[v][d];
+    for (int q = 0; q < 8; ++q) {
+      const auto o = topology::corner_offset(q);
+      double w = 1.0;
+      for (int d = 0; d < 3; ++d) w *= o[d] ? xi[d] : 1.0 - xi[d];
+      for (int d = 0; d < 3; ++d) x[3 * i + d] += w * u[3 * D.cell_corners[e][q] + d];
+    }
+  }
+  check_petsc(VecRestoreArray(moved, &x), "VecRestoreArray");
+  check_petsc(VecRestoreArrayRead(ul, &u), "VecRestoreArrayRead");
+  check_petsc(DMRestoreLocalVector(M.dm, &ul), "DMRestoreLocalVector");
+  auto& ns = surface_points_;
+  check_petsc(VecScatterBegin(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
+  check_petsc(VecScatterEnd(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
+              "scatter");
+  check_petsc(VecDestroy(&moved), "VecDestroy");
+  output::SurfaceData data;
+  data.vertices = {std::int64_t(S.position.size()), ns.row_begin, ns.rows};
+  const PetscScalar* positions;
+  check_petsc(VecGetArrayRead(ns.natural, &positions), "VecGetArrayRead");
+  data.positions = positions;
+  data.owner_cell = S.cell.data() + ns.row_begin;
+  data.faces = even_slab(comm_, std::int64_t(S.triangles.size()));
+  std::vector<std::int64_t> triangles(3 * data.faces.local_rows);
+  for (std::int64_t f = 0; f < data.faces.local_rows; ++f)
+    for (int k = 0; k < 3; ++k) triangles[3 * f + k] = S.triangles[data.faces.row_offset + f][k];
+  data.triangles = triangles.data();
+  data.cut_id = S.cut_id.data() + data.faces.row_offset;
+  writer_.write_surface(s.step, data);
+  check_petsc(VecRestoreArrayRead(ns.natural, &positions), "VecRestoreArrayRead");
 }
 
 topology::NaturalScatter& ResultOutput::cell_scatter(int block) {
@@ -226,6 +322,7 @@ void ResultOutput::write_step(const State& s, bool corotational) {
     writer_.write_mesh(s.step, t.mesh);
     mesh_pending_ = false;
   }
+  if (o.has_field("surface")) write_surface(s);
   if (o.has_field("displacement")) write_point_vector(s.step, "displacement", s.u, "m");
   if (o.has_field("velocity")) write_point_vector(s.step, "velocity", s.v, "m/s");
   if (o.has_field("acceleration")) write_point_vector(s.step, "acceleration", s.a, "m/s^2");
@@ -277,8 +374,10 @@ void ResultOutput::write_checkpoint(const State& s) {
   gather(s.u, u);
   gather(s.v, v);
   gather(s.a, a);
-  writer_.write_checkpoint(s.step, s.time, points_.row_begin, points_.rows, u.data(), v.data(),
-                           a.data());
+  // The current topology's point count: after a cut the writer's mesh is the old one
+  // until the next output step.
+  const output::Slab points{model_.layout.num_global_copies, points_.row_begin, points_.rows};
+  writer_.write_checkpoint(s.step, s.time, points, u.data(), v.data(), a.data());
 }
 
 void ResultOutput::read_checkpoint(State* s) {

@@ -13,6 +13,7 @@
 #include "analysis/model.hpp"
 #include "output/result_writer.hpp"
 #include "solve/linear_solver.hpp"
+#include "surface/surface.hpp"
 
 namespace hexcut::analysis {
 
@@ -62,6 +63,7 @@ class ResultOutput {
                           const std::string& unit);
   void write_cell_values(std::int64_t step, const std::string& name, int block,
                          const std::vector<double>& values, const std::string& unit);
+  void write_surface(const State& s);
 
   MPI_Comm comm_;
   const Model& model_;
@@ -71,6 +73,14 @@ class ResultOutput {
   std::map<int, topology::NaturalScatter> cells_;
   PetscInt first_local_cell_ = 0;  // PETSc-ordered cell offset of this rank
   bool mesh_pending_ = false;      // topology changed since the last written step
+  // Surfaces (dual contouring): the boundary's Hermite data (the geometry's, fixed for
+  // the run), the surface of the current topology (canonical order, on every rank), the
+  // vertices whose cell is this rank's, and the scatter of their positions to the file's
+  // row slabs.
+  std::unique_ptr<surface::BoundaryHermite> hermite_;
+  std::unique_ptr<surface::Surface> surface_;
+  std::vector<std::int32_t> surface_mine_;
+  topology::NaturalScatter surface_points_;
 };
 
 }  // namespace hexcut::analysis

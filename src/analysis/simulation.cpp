@@ -23,7 +23,9 @@ class EventScope {
 /// A global vector borrowed from the DM for the scope.
 class ScratchVec {
  public:
-  explicit ScratchVec(DM dm) : dm_(dm) { check_petsc(DMGetGlobalVector(dm_, &v_), "DMGetGlobalVector"); }
+  explicit ScratchVec(DM dm) : dm_(dm) {
+    check_petsc(DMGetGlobalVector(dm_, &v_), "DMGetGlobalVector");
+  }
   ~ScratchVec() { DMRestoreGlobalVector(dm_, &v_); }
   operator Vec() const { return v_; }
 
@@ -38,19 +40,20 @@ Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
   check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
   if (uses_multigrid()) {
-    mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition, model.layout,
-                                                 model.dm,
-                                                 multigrid::read_options());
+    mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition,
+                                                 model.layout, model.dm, multigrid::read_options());
     PC pc;
     check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");
     check_petsc(mg_->attach(pc), "attach");
   } else {
-    check_petsc(assembly::create_matrix(comm, model.copies, model.partition, model.layout, &A_), "create_matrix");
+    check_petsc(assembly::create_matrix(comm, model.copies, model.partition, model.layout, &A_),
+                "create_matrix");
   }
 }
 
 bool Simulation::uses_multigrid() const {
-  return deck_.solver.type == deck::Solver::Type::gmg || deck_.solver.type == deck::Solver::Type::gmg_cycles;
+  return deck_.solver.type == deck::Solver::Type::gmg ||
+         deck_.solver.type == deck::Solver::Type::gmg_cycles;
 }
 
 Simulation::~Simulation() {
@@ -67,7 +70,8 @@ void Simulation::assemble(const assembly::OperatorWeights& w) {
   if (mg_) {
     // Matrix-free: the fine operator reads the cell data; the hierarchy is rebuilt.
     mg_->update(model_.cells, w, model_.boundary.constraints.rows);
-    check_petsc(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()), "KSPSetOperators");
+    check_petsc(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()),
+                "KSPSetOperators");
   } else {
     check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, w, A_), "assemble_matrix");
     check_petsc(assembly::constrain_matrix(model_.boundary.constraints, A_), "constrain_matrix");
@@ -102,13 +106,14 @@ void Simulation::run_static(State& s, const Observer& obs) {
     for (int k = 0; k < max_iter && !converged; ++k) {
       if (corotational()) refresh_rotations(s.u);
       if (corotational() || !assembled_) assemble(w);
-      check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary, t_eval, lf, b),
+      check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary,
+                                           t_eval, lf, b),
                   "assemble_loads");
       if (corotational())
         check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, b),
                     "add_corotational_rhs");
-      check_petsc(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w, model_.boundary.constraints,
-                                          t_eval, lf, b),
+      check_petsc(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w,
+                                          model_.boundary.constraints, t_eval, lf, b),
                   "constrain_rhs");
       check_petsc(VecCopy(s.u, u_new), "VecCopy");
       solve::SolveRecord rec;
@@ -133,9 +138,10 @@ void Simulation::run_static(State& s, const Observer& obs) {
       check_petsc(VecCopy(u_new, s.u), "VecCopy");
     }
     if (!converged)
-      throw SolverError("corotational fixed-point iteration did not converge in load step " + std::to_string(step) +
-                        " of " + std::to_string(n) + ": relative update " + std::to_string(change) + " > tolerance " +
-                        std::to_string(an.tolerance) + " after " + std::to_string(an.max_iterations) +
+      throw SolverError("corotational fixed-point iteration did not converge in load step " +
+                        std::to_string(step) + " of " + std::to_string(n) + ": relative update " +
+                        std::to_string(change) + " > tolerance " + std::to_string(an.tolerance) +
+                        " after " + std::to_string(an.max_iterations) +
                         " iterations (try more analysis.load_steps)");
     if (obs.on_step) obs.on_step(s);
   }
@@ -148,19 +154,25 @@ void Simulation::initial_acceleration(State& s) {
   const assembly::OperatorWeights mass_only{0.0, 1.0, lumped};
   ScratchVec r(model_.dm), Ku(model_.dm);
   if (corotational()) refresh_rotations(s.u);
-  check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary, s.time, 1.0, r),
+  check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary,
+                                       s.time, 1.0, r),
               "assemble_loads");
   if (corotational())
-    check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, r), "corotational_rhs");
-  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku), "apply");
+    check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, r),
+                "corotational_rhs");
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku),
+              "apply");
   check_petsc(VecAXPY(r, -1.0, Ku), "VecAXPY");
   Mat M;
   KSP k;
-  check_petsc(assembly::create_matrix(comm_, model_.copies, model_.partition, model_.layout, &M), "create_matrix");
-  check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, mass_only, M), "assemble_matrix");
+  check_petsc(assembly::create_matrix(comm_, model_.copies, model_.partition, model_.layout, &M),
+              "create_matrix");
+  check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, mass_only, M),
+              "assemble_matrix");
   check_petsc(assembly::constrain_matrix(model_.boundary.constraints, M), "constrain_matrix");
   // Prescribed rows: zero initial acceleration.
-  for (PetscInt row : model_.boundary.constraints.rows) check_petsc(VecSetValue(r, row, 0.0, INSERT_VALUES), "VecSetValue");
+  for (PetscInt row : model_.boundary.constraints.rows)
+    check_petsc(VecSetValue(r, row, 0.0, INSERT_VALUES), "VecSetValue");
   check_petsc(VecAssemblyBegin(r), "VecAssemblyBegin");
   check_petsc(VecAssemblyEnd(r), "VecAssemblyEnd");
   check_petsc(KSPCreate(comm_, &k), "KSPCreate");
@@ -177,7 +189,8 @@ void Simulation::initial_acceleration(State& s) {
   check_petsc(KSPGetConvergedReason(k, &reason), "KSPGetConvergedReason");
   KSPDestroy(&k);
   MatDestroy(&M);
-  if (reason < 0) throw SolverError("initial acceleration (mass solve) failed: " + solve::reason_string(reason));
+  if (reason < 0)
+    throw SolverError("initial acceleration (mass solve) failed: " + solve::reason_string(reason));
 }
 
 solve::SolveRecord Simulation::newmark_step(State& s) {
@@ -185,15 +198,18 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
   const auto c = element::newmark_coefficients(an.dt);
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;
   // A = a0 M + a1 D + K^ with D = alpha1 M + alpha2 K^.
-  const assembly::OperatorWeights w{1.0 + c.a1 * an.rayleigh_stiffness, c.a0 + c.a1 * an.rayleigh_mass, lumped};
+  const assembly::OperatorWeights w{1.0 + c.a1 * an.rayleigh_stiffness,
+                                    c.a0 + c.a1 * an.rayleigh_mass, lumped};
   if (corotational()) refresh_rotations(s.u);
   if (corotational() || !assembled_) assemble(w);
   const double t1 = s.time + an.dt;
   ScratchVec b(model_.dm), hist(model_.dm), tmp(model_.dm), u_new(model_.dm);
   auto& M = model_;
-  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, b), "assemble_loads");
+  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, b),
+              "assemble_loads");
   if (corotational())
-    check_petsc(assembly::add_corotational_rhs(M.dm, M.layout, M.cells, 1.0, b), "corotational_rhs");
+    check_petsc(assembly::add_corotational_rhs(M.dm, M.layout, M.cells, 1.0, b),
+                "corotational_rhs");
   // + M (a0 u + a2 v + a)
   check_petsc(VecAXPBYPCZ(hist, c.a0, c.a2, 0.0, s.u, s.v), "VecAXPBYPCZ");
   check_petsc(VecAXPY(hist, 1.0, s.a), "VecAXPY");
@@ -202,11 +218,14 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
   // + D (a1 u + v)
   if (an.rayleigh_mass != 0.0 || an.rayleigh_stiffness != 0.0) {
     check_petsc(VecAXPBYPCZ(hist, c.a1, 1.0, 0.0, s.u, s.v), "VecAXPBYPCZ");
-    check_petsc(assembly::apply(M.dm, M.layout, M.cells, {an.rayleigh_stiffness, an.rayleigh_mass, lumped}, hist, tmp),
+    check_petsc(assembly::apply(M.dm, M.layout, M.cells,
+                                {an.rayleigh_stiffness, an.rayleigh_mass, lumped}, hist, tmp),
                 "apply");
     check_petsc(VecAXPY(b, 1.0, tmp), "VecAXPY");
   }
-  check_petsc(assembly::constrain_rhs(M.dm, M.layout, M.cells, w, M.boundary.constraints, t1, 1.0, b), "constrain_rhs");
+  check_petsc(
+      assembly::constrain_rhs(M.dm, M.layout, M.cells, w, M.boundary.constraints, t1, 1.0, b),
+      "constrain_rhs");
   check_petsc(VecCopy(s.u, u_new), "VecCopy");
   solve::SolveRecord rec;
   {
@@ -244,7 +263,8 @@ void Simulation::run_dynamic(State& s, const Observer& obs) {
 double Simulation::kinetic_energy(const State& s) {
   const bool lumped = deck_.analysis.mass == deck::Analysis::Mass::lumped;
   ScratchVec Mv(model_.dm);
-  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0, lumped}, s.v, Mv), "apply");
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0, lumped}, s.v, Mv),
+              "apply");
   PetscScalar e;
   check_petsc(VecDot(s.v, Mv, &e), "VecDot");
   return 0.5 * e;
@@ -252,7 +272,8 @@ double Simulation::kinetic_energy(const State& s) {
 
 double Simulation::elastic_energy(const State& s) {
   ScratchVec Ku(model_.dm);
-  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku), "apply");
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku),
+              "apply");
   PetscScalar e;
   check_petsc(VecDot(s.u, Ku, &e), "VecDot");
   return 0.5 * e;

@@ -125,14 +125,14 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   // solving; dynamic ones apply each when its time comes, in the deformed configuration.
   an::Cutter cutter(deck, model.lattice);
   auto apply_cuts = [&](double t) {
-    PetscLogEventBegin(ev.cut, 0, 0, 0, 0);
     const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
     if (r.links > 0) {
+      PetscLogEventBegin(ev.rebuild, 0, 0, 0, 0);
       sim.reset();
       sim = std::make_unique<an::Simulation>(comm, model, deck);
       out.topology_changed();
+      PetscLogEventEnd(ev.rebuild, 0, 0, 0, 0);
     }
-    PetscLogEventEnd(ev.cut, 0, 0, 0, 0);
     if (r.events == 0) return;
     if (r.links == 0) {
       PetscPrintf(comm, "hexcut: t = %g s: %d cut event(s) crossed no link\n", t, r.events);

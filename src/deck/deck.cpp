@@ -730,8 +730,8 @@ Output parse_output(const Context& c, const YAML::Node& n) {
   }
   if (n["fields"]) {
     static const std::set<std::string> known = {
-        "displacement", "velocity", "acceleration",     "stress",
-        "von_mises",    "pressure", "principal_stress", "principal_directions"};
+        "displacement", "velocity",         "acceleration",         "stress", "von_mises",
+        "pressure",     "principal_stress", "principal_directions", "surface"};
     if (!n["fields"].IsSequence()) c.fail(n["fields"], "output.fields must be a list");
     o.fields.clear();
     for (const auto& f : n["fields"]) {
@@ -763,6 +763,43 @@ bool Output::has_field(const std::string& f) const {
   for (const auto& x : fields)
     if (x == f) return true;
   return false;
+}
+
+std::vector<geometry::GeometryOp> membership_ops(const GeometryStep& step) {
+  std::vector<geometry::GeometryOp> ops;
+  switch (step.kind) {
+    case GeometryStep::Kind::add:
+      ops.push_back({geometry::OpMode::add, step.shape, step.material});
+      break;
+    case GeometryStep::Kind::subtract:
+      ops.push_back({geometry::OpMode::subtract, step.shape, 0});
+      break;
+    case GeometryStep::Kind::assign:
+      ops.push_back({geometry::OpMode::assign, step.shape, step.material});
+      break;
+    case GeometryStep::Kind::image_labels: {
+      // Each cell has one label, so the order of the per-material adds is irrelevant.
+      std::map<int, std::set<int>> labels_of;  // material -> labels
+      for (const auto& [label, material] : step.label_to_material)
+        labels_of[material].insert(label);
+      for (auto& [material, labels] : labels_of)
+        ops.push_back({geometry::OpMode::add,
+                       geometry::make_image_labels(step.image, std::move(labels)), material});
+      break;
+    }
+    case GeometryStep::Kind::image_youngs:
+      break;
+  }
+  return ops;
+}
+
+std::vector<geometry::GeometryOp> membership_ops(const Deck& deck) {
+  std::vector<geometry::GeometryOp> ops;
+  for (const auto& step : deck.geometry) {
+    auto more = membership_ops(step);
+    ops.insert(ops.end(), more.begin(), more.end());
+  }
+  return ops;
 }
 
 const char* to_string(Solver::Type t) {

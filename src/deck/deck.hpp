@@ -15,6 +15,7 @@
 #include "geometry/shape.hpp"
 #include "geometry/triangle_mesh.hpp"
 #include "geometry/voxel_image.hpp"
+#include "geometry/voxelize.hpp"
 
 namespace hexcut::deck {
 
@@ -116,8 +117,8 @@ struct Output {
   int every = 1;             // write every N steps (static: the final state is always written)
   int checkpoint_every = 0;  // 0 = only at the end
   std::vector<std::string> fields{
-      "displacement", "velocity", "acceleration",     "stress",
-      "von_mises",    "pressure", "principal_stress", "principal_directions"};
+      "displacement", "velocity",         "acceleration",         "stress", "von_mises",
+      "pressure",     "principal_stress", "principal_directions", "surface"};
   bool has_field(const std::string& f) const;
 };
 
@@ -169,6 +170,12 @@ struct Deck {
   Solver solver;
   Output output;
 };
+
+/// A geometry step as the membership operations it applies (a label image: one add per
+/// material; a Young's modulus image changes no membership: none).
+std::vector<geometry::GeometryOp> membership_ops(const GeometryStep& step);
+/// Every step's operations, in deck order: the body build_lattice voxelizes.
+std::vector<geometry::GeometryOp> membership_ops(const Deck& deck);
 
 /// Parses and validates a deck. `text` is the file content, `path` names it in errors.
 /// Throws InputError ("path:line: message").

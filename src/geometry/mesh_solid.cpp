@@ -21,6 +21,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -46,6 +47,30 @@ inline double solid_angle(const Eigen::Vector3d& p, const Tri& t) {
   const double num = a.dot(b.cross(c));
   const double den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
   return 2.0 * std::atan2(num, den);
+}
+
+// Closest point to p on triangle t, by the Voronoi regions of its corners, edges and
+// face (Ericson, "Real-Time Collision Detection", §5.1.5).
+Eigen::Vector3d closest_point(const Eigen::Vector3d& p, const Tri& t) {
+  const Eigen::Vector3d &a = t[0], &b = t[1], &c = t[2];
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
 void check_mesh(const TriangleMesh& mesh) {
@@ -147,6 +172,39 @@ class MeshSolid final : public Shape {
   void classify_cells(const LatticeSpec& spec, const std::array<int, 3>& lo,
                       const std::array<int, 3>& hi,
                       std::vector<std::uint8_t>& inside) const override;
+
+  // Normal of the nearest non-degenerate triangle (triangles are outward-oriented),
+  // found by a best-first descent of the BVH pruned by box distance.
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const override {
+    double best = std::numeric_limits<double>::infinity();
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (node.box.squaredExteriorDistance(p) >= best) continue;
+      if (node.left < 0) {
+        for (int t = node.begin; t < node.end; ++t) {
+          const Tri& tri = tris_[t];
+          const Eigen::Vector3d n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+          if (!(n.squaredNorm() > 0.0)) continue;
+          const double d = (closest_point(p, tri) - p).squaredNorm();
+          if (d < best) {
+            best = d;
+            normal = n.normalized();
+          }
+        }
+        continue;
+      }
+      // Visit the nearer child first (pushed last) so that `best` shrinks early.
+      const double dl = nodes_[node.left].box.squaredExteriorDistance(p);
+      const double dr = nodes_[node.right].box.squaredExteriorDistance(p);
+      stack[top++] = dl < dr ? node.right : node.left;
+      stack[top++] = dl < dr ? node.left : node.right;
+    }
+    return normal;
+  }
 
  private:
   struct Node {

@@ -1,5 +1,6 @@
 // Analytic primitives. Each validates its arguments up front so that a bad deck value
 // fails with a message instead of voxelizing to nothing.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -40,6 +41,22 @@ class Box final : public Shape {
     return (p.array() >= lo_.array()).all() && (p.array() <= hi_.array()).all();
   }
   Aabb bounds() const override { return {lo_, hi_}; }
+  // Gradient of the box's signed distance: outside, towards p from the nearest box
+  // point (a face, edge or corner); inside, the normal of the nearest face.
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const override {
+    const Eigen::Vector3d centre = 0.5 * (lo_ + hi_);
+    Eigen::Vector3d excess, sign;
+    for (int a = 0; a < 3; ++a) {
+      excess[a] = std::max(lo_[a] - p[a], p[a] - hi_[a]);
+      sign[a] = p[a] < centre[a] ? -1.0 : 1.0;
+    }
+    if ((excess.array() > 0.0).any()) {
+      return excess.cwiseMax(0.0).cwiseProduct(sign).normalized();
+    }
+    int a;
+    excess.maxCoeff(&a);
+    return sign[a] * Eigen::Vector3d::Unit(a);
+  }
 
  private:
   Eigen::Vector3d lo_, hi_;
@@ -54,6 +71,11 @@ class Sphere final : public Shape {
   Aabb bounds() const override {
     const Eigen::Vector3d r = Eigen::Vector3d::Constant(r_);
     return {c_ - r, c_ + r};
+  }
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const override {
+    const Eigen::Vector3d d = p - c_;
+    const double n = d.norm();
+    return n > 0.0 ? Eigen::Vector3d(d / n) : Eigen::Vector3d::Zero();
   }
 
  private:
@@ -77,6 +99,21 @@ class Cylinder final : public Shape {
     const Eigen::Vector3d e =
         r_ * (Eigen::Vector3d::Ones() - axis_.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
     return {p0_.cwiseMin(p1_) - e, p0_.cwiseMax(p1_) + e};
+  }
+  // Gradient of the signed distance, as for the box: the mantle's radial direction or
+  // the nearer cap's axis direction, blended outside the rim where both are exceeded.
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const override {
+    const Eigen::Vector3d d = p - p0_;
+    const double t = d.dot(axis_);
+    const Eigen::Vector3d radial = d - t * axis_;
+    const double rr = radial.norm();
+    const Eigen::Vector3d cap = t < 0.5 * len_ ? Eigen::Vector3d(-axis_) : axis_;
+    const double over_mantle = rr - r_, over_cap = std::max(-t, t - len_);
+    if (!(rr > 0.0)) return cap;  // on the axis the radial direction is undefined
+    const Eigen::Vector3d out = radial / rr;
+    if (over_mantle > 0.0 && over_cap > 0.0)
+      return (over_mantle * out + over_cap * cap).normalized();
+    return over_mantle >= over_cap ? out : cap;
   }
 
  private:
@@ -110,6 +147,7 @@ class HalfSpace final : public Shape {
   HalfSpace(const Eigen::Vector3d& point, const Eigen::Vector3d& n) : point_(point), n_(n) {}
   bool contains(const Eigen::Vector3d& p) const override { return (p - point_).dot(n_) <= 0.0; }
   Aabb bounds() const override { return plane_bounds(point_, n_, kInf, 0.0); }
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d&) const override { return n_; }
 
  private:
   Eigen::Vector3d point_, n_;
@@ -123,6 +161,9 @@ class Slab final : public Shape {
     return std::abs((p - point_).dot(n_)) <= half_;
   }
   Aabb bounds() const override { return plane_bounds(point_, n_, half_, half_); }
+  Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const override {
+    return (p - point_).dot(n_) < 0.0 ? Eigen::Vector3d(-n_) : n_;
+  }
 
  private:
   Eigen::Vector3d point_, n_;

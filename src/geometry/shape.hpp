@@ -31,6 +31,11 @@ class Shape {
   /// Box that contains every inside point (may be infinite, see Aabb).
   virtual Aabb bounds() const = 0;
 
+  /// Unit outward normal of the surface near p (p is meant to lie on or close to the
+  /// surface): the Hermite normal of the outer boundary (design.md §6, geometry/crossing).
+  /// Zero when the shape has no normal to offer (the default, e.g. voxel images).
+  virtual Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const;
+
   /// Classifies the cells of the half-open index box [lo, hi) of `spec` by their centre:
   /// inside[(i-lo0) + nx*((j-lo1) + ny*(k-lo2))] = contains(cell centre), with
   /// nx = hi0-lo0, ny = hi1-lo1. `inside` is resized to the box size. The default

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -50,7 +52,35 @@ void cell_box(const LatticeSpec& spec, const Aabb& box, std::array<int, 3>& lo,
   }
 }
 
+// The integer label of an image value, or nothing for NaN (outside the image) and values
+// too large for an int. Shared by apply_image_labels() and make_image_labels(), so the
+// lattice and the boundary's Hermite data agree on membership.
+std::optional<int> rounded_label(double v) {
+  if (!std::isfinite(v) || std::abs(v) > 2e9) return std::nullopt;
+  return static_cast<int>(std::lround(v));
+}
+
+class ImageLabels final : public Shape {
+ public:
+  ImageLabels(std::shared_ptr<const VoxelImage> image, std::set<int> labels)
+      : image_(std::move(image)), labels_(std::move(labels)) {}
+  bool contains(const Eigen::Vector3d& p) const override {
+    const auto label = rounded_label(image_->sample(p));
+    return label && labels_.count(*label);
+  }
+  Aabb bounds() const override { return image_->bounds(); }
+
+ private:
+  std::shared_ptr<const VoxelImage> image_;
+  std::set<int> labels_;
+};
+
 }  // namespace
+
+ShapePtr make_image_labels(std::shared_ptr<const VoxelImage> image, std::set<int> labels) {
+  if (!image) throw std::invalid_argument("image labels: null image");
+  return std::make_shared<ImageLabels>(std::move(image), std::move(labels));
+}
 
 VoxelGrid make_empty_grid(const LatticeSpec& spec) {
   for (int d : spec.dims) {
@@ -94,9 +124,9 @@ void apply_image_labels(VoxelGrid& grid, const VoxelImage& image,
   for (int k = lo[2]; k < hi[2]; ++k) {
     for (int j = lo[1]; j < hi[1]; ++j) {
       for (int i = lo[0]; i < hi[0]; ++i) {
-        const double v = image.sample(grid.spec.cell_centre(i, j, k));
-        if (!std::isfinite(v) || std::abs(v) > 2e9) continue;
-        const auto it = table.find(static_cast<int>(std::lround(v)));
+        const auto label = rounded_label(image.sample(grid.spec.cell_centre(i, j, k)));
+        if (!label) continue;
+        const auto it = table.find(*label);
         if (it != table.end()) grid.material[grid.spec.cell_index(i, j, k)] = it->second;
       }
     }

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "common/lattice_spec.hpp"
@@ -44,6 +45,11 @@ void apply(VoxelGrid& grid, const GeometryOp& op);
 /// that material (an add); other cells are untouched. Labels are rounded to integers.
 void apply_image_labels(VoxelGrid& grid, const VoxelImage& image,
                         const std::map<int, int>& label_to_material);
+
+/// Solid where the image's rounded label is in `labels` (never outside the image): the
+/// cells apply_image_labels() fills, as a shape (membership of the boundary's Hermite
+/// data, geometry/crossing.hpp). Throws std::invalid_argument for a null image.
+ShapePtr make_image_labels(std::shared_ptr<const VoxelImage> image, std::set<int> labels);
 
 /// Stiffness map: every filled cell gets youngs = scale * sample(cell centre); cells
 /// outside the image keep their value (NaN = use material). Allocates youngs (all NaN)

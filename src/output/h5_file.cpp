@@ -291,6 +291,10 @@ void H5File::write_rows(const std::string& path, std::int64_t global_rows, std::
                     H5Dclose);
   }
 
+  // An empty table has no storage to write to (H5Dwrite fails on it); every rank sees the
+  // same global_rows, so all skip the collective call together.
+  if (global_rows == 0) return;
+
   H5Handle fspace(check(H5Dget_space(dset.get()), "get dataspace of", path), H5Sclose);
   std::vector<hsize_t> start(gshape.size(), 0), count = gshape;
   start[0] = static_cast<hsize_t>(row_offset);
@@ -329,6 +333,7 @@ void H5File::read_rows(const std::string& path, std::int64_t global_rows, std::i
   }
   if (row_offset < 0 || local_rows < 0 || row_offset + local_rows > global_rows)
     fail("read_rows (bad slab)", path);
+  if (global_rows == 0) return;  // nothing to read (see write_rows)
   const int ndims = static_cast<int>(gshape.size());
   H5Handle dset = open_dataset(path);
   H5Handle fspace(check(H5Dget_space(dset.get()), "get dataspace of", path), H5Sclose);

@@ -74,7 +74,8 @@ class H5File {
   /// 1-D dataset of global_rows values and `data` holds local_rows values). Creates the
   /// dataset and missing intermediate groups. An existing dataset with the same shape and
   /// stored type is overwritten in place; one with another shape or type is unlinked and
-  /// re-created. Collective; local_rows may be 0 (data may then be null).
+  /// re-created. Collective; local_rows may be 0 (data may then be null); global_rows may
+  /// be 0 (an empty table: the dataset is created, nothing is written).
   /// T is one of double, float, std::int32_t, std::int64_t, std::uint8_t.
   template <class T>
   void write_rows(const std::string& path, std::int64_t global_rows, std::int64_t cols,

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -104,6 +105,81 @@ bool any_rank(MPI_Comm comm, bool flag) {
   return any == 1;
 }
 
+/// Throws on every rank when `value` is not the same on all ranks (a global size that the
+/// ranks disagree on would make the collective writes diverge).
+void require_same(MPI_Comm comm, std::int64_t value, const std::string& message) {
+  std::int64_t mine[2] = {value, -value}, max[2] = {0, 0};
+  MPI_Allreduce(mine, max, 2, MPI_INT64_T, MPI_MAX, comm);
+  require(max[0] == -max[1], message + " differs between ranks");
+}
+
+bool valid_slab(const Slab& s) {
+  return s.row_offset >= 0 && s.local_rows >= 0 && s.row_offset + s.local_rows <= s.global_rows;
+}
+
+/// Throws on every rank unless the ranks' slabs are valid and their rows add up to the
+/// table (a caller still using the previous mesh's slabs after a topology change would
+/// otherwise leave rows unwritten without an error).
+void require_cover(MPI_Comm comm, const Slab& slab, const std::string& what) {
+  require_all(comm, valid_slab(slab),
+              what + ": bad slab [" + std::to_string(slab.row_offset) + ", +" +
+                  std::to_string(slab.local_rows) + ") of " + std::to_string(slab.global_rows) +
+                  " rows");
+  std::int64_t covered = 0;
+  MPI_Allreduce(&slab.local_rows, &covered, 1, MPI_INT64_T, MPI_SUM, comm);
+  require(covered == slab.global_rows, what + ": the ranks' slabs hold " + std::to_string(covered) +
+                                           " rows, the table has " +
+                                           std::to_string(slab.global_rows));
+}
+
+/// True when every value of `data[0, n)` lies in [lo, hi).
+template <class T>
+bool all_in_range(const T* data, std::int64_t n, std::int64_t lo, std::int64_t hi) {
+  for (std::int64_t i = 0; i < n; ++i)
+    if (data[i] < lo || data[i] >= hi) return false;
+  return true;
+}
+
+/// The argument checks shared by ResultWriter::create and write_mesh (agreed on by all
+/// ranks, so every rank throws or none).
+void check_mesh(MPI_Comm comm, const MeshData& mesh) {
+  const Slab& p = mesh.points;
+  const Slab& c = mesh.cells;
+  require_same(comm, p.global_rows, "the mesh's point count");
+  require_same(comm, c.global_rows, "the mesh's cell count");
+  require_cover(comm, p, "mesh points");
+  require_cover(comm, c, "mesh cells");
+  require_all(comm, p.local_rows == 0 || mesh.positions != nullptr, "mesh positions missing");
+  require_all(comm,
+              c.local_rows == 0 ||
+                  (mesh.connectivity && mesh.lattice_index && mesh.material && mesh.youngs_modulus),
+              "mesh cell tables missing");
+}
+
+/// Writes the datasets and attributes of a mesh group (/mesh or a step's mesh).
+void write_mesh_group(H5File& f, const std::string& base, const MeshData& mesh) {
+  const Slab& p = mesh.points;
+  const Slab& c = mesh.cells;
+  f.write_rows(base + "/points", p.global_rows, 3, p.row_offset, p.local_rows, mesh.positions);
+  f.write_rows(base + "/cells", c.global_rows, 8, c.row_offset, c.local_rows, mesh.connectivity);
+  f.write_rows(base + "/cell_lattice_index", c.global_rows, 3, c.row_offset, c.local_rows,
+               mesh.lattice_index);
+  f.write_rows(base + "/cell_material", c.global_rows, 0, c.row_offset, c.local_rows,
+               mesh.material);
+  f.write_rows(base + "/cell_youngs_modulus", c.global_rows, 0, c.row_offset, c.local_rows,
+               mesh.youngs_modulus);
+  f.write_attribute(base + "/points", "unit", "m");
+  f.write_attribute(base + "/cell_youngs_modulus", "unit", "Pa");
+  const LatticeSpec& l = mesh.lattice;
+  f.write_attribute(base, "lattice_origin",
+                    std::vector<double>{l.origin.x(), l.origin.y(), l.origin.z()});
+  f.write_attribute(base, "lattice_h", l.h);
+  f.write_attribute(base, "lattice_dims",
+                    std::vector<std::int64_t>{l.dims[0], l.dims[1], l.dims[2]});
+  f.write_attribute(base, "num_points", p.global_rows);
+  f.write_attribute(base, "num_cells", c.global_rows);
+}
+
 std::string xml_escape(const std::string& text) {
   std::string out;
   for (char c : text) {
@@ -138,6 +214,30 @@ std::string format_double(double value) {
 
 bool all_digits(const std::string& s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+bool is_complete(H5File& f, const std::string& group) {
+  return f.has_attribute(group, "complete") && f.read_attribute_int64(group, "complete") == 1;
+}
+
+/// The mesh group a step group uses (its `mesh` attribute; "/mesh" when absent).
+std::string mesh_of(H5File& f, const std::string& group) {
+  return f.has_attribute(group, "mesh") ? f.read_attribute_string(group, "mesh")
+                                        : std::string("/mesh");
+}
+
+/// The mesh of the highest-numbered complete step group other than `except` ("/mesh" when
+/// there is none): the mesh a (re)started run continues with. Scans the groups instead of
+/// trusting /steps@last_complete_step, which can name a step that is being rewritten.
+std::string mesh_of_last_complete_step(H5File& f, const std::string& except = "") {
+  if (!f.is_group("/steps")) return "/mesh";
+  std::vector<std::string> names = f.list("/steps");  // increasing = numerical order
+  for (auto it = names.rbegin(); it != names.rend(); ++it) {
+    const std::string group = "/steps/" + *it;
+    if (!all_digits(*it) || group == except || !f.is_group(group)) continue;
+    if (is_complete(f, group)) return mesh_of(f, group);
+  }
+  return "/mesh";
 }
 
 }  // namespace
@@ -210,13 +310,12 @@ void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
       << "    <Grid Name=\"hexcut\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   std::vector<std::string> steps =
       file.is_group("/steps") ? file.list("/steps") : std::vector<std::string>{};
+  std::vector<std::string> surfaces;  // complete steps with a non-empty surface
   for (const std::string& name : steps) {
     const std::string group = "/steps/" + name;
     if (!all_digits(name) || !file.is_group(group)) continue;
-    if (!file.has_attribute(group, "complete") || file.read_attribute_int64(group, "complete") != 1)
-      continue;
-    std::string mesh = file.has_attribute(group, "mesh") ? file.read_attribute_string(group, "mesh")
-                                                         : std::string("/mesh");
+    if (!is_complete(file, group)) continue;
+    const std::string mesh = mesh_of(file, group);
     const std::int64_t num_points = file.dims(mesh + "/points").at(0);
     const std::int64_t num_cells = file.dims(mesh + "/cells").at(0);
     out << "      <Grid Name=\"step_" << name << "\" GridType=\"Uniform\">\n"
@@ -249,8 +348,40 @@ void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
       if (centering == "cell") attribute(x, field, path, "Cell");
     }
     out << "      </Grid>\n";
+    if (file.exists(group + "/surface/triangles") &&
+        file.dims(group + "/surface/triangles").at(0) > 0)
+      surfaces.push_back(name);
   }
-  out << "    </Grid>\n  </Domain>\n</Xdmf>\n";
+  out << "    </Grid>\n";
+  // The surfaces form a second temporal collection (omitted when no step has one), so the
+  // volume collection keeps its former structure. Both ParaView XDMF readers (Xdmf2
+  // vtkXdmfReader and Xdmf3) then give a two-block data set, and for a time at which a
+  // step has no surface they match no surface grid (exact time match) and leave that
+  // block empty instead of showing a stale surface. A spatial collection per step would
+  // change the block structure between steps with and without a surface.
+  if (!surfaces.empty()) {
+    out << "    <Grid Name=\"hexcut_surface\" GridType=\"Collection\" "
+           "CollectionType=\"Temporal\">\n";
+    for (const std::string& name : surfaces) {
+      const std::string group = "/steps/" + name;
+      const std::string base = group + "/surface";
+      out << "      <Grid Name=\"surface_" << name << "\" GridType=\"Uniform\">\n"
+          << "        <Time Value=\"" << format_double(file.read_attribute_double(group, "time"))
+          << "\"/>\n"
+          << "        <Topology TopologyType=\"Triangle\" NumberOfElements=\""
+          << file.dims(base + "/triangles").at(0) << "\">\n";
+      data_item(x, base + "/triangles", "          ");
+      out << "        </Topology>\n"
+          << "        <Geometry GeometryType=\"XYZ\">\n";
+      data_item(x, base + "/points", "          ");
+      out << "        </Geometry>\n";
+      attribute(x, "cut_id", base + "/cut_id", "Cell");
+      attribute(x, "owner_cell", base + "/owner_cell", "Node");
+      out << "      </Grid>\n";
+    }
+    out << "    </Grid>\n";
+  }
+  out << "  </Domain>\n</Xdmf>\n";
   file.close();
 
   const std::string tmp = xmf_path + ".tmp";
@@ -268,47 +399,16 @@ void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
 // ------------------------------------------------------------------------ ResultWriter
 ResultWriter ResultWriter::create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
                                   const RunInfo& run) {
-  const Slab& p = mesh.points;
-  const Slab& c = mesh.cells;
-  require_all(
-      comm, p.row_offset >= 0 && p.local_rows >= 0 && p.row_offset + p.local_rows <= p.global_rows,
-      "bad point slab");
-  require_all(
-      comm, c.row_offset >= 0 && c.local_rows >= 0 && c.row_offset + c.local_rows <= c.global_rows,
-      "bad cell slab");
-  require_all(comm, p.local_rows == 0 || mesh.positions != nullptr, "mesh positions missing");
-  require_all(comm,
-              c.local_rows == 0 ||
-                  (mesh.connectivity && mesh.lattice_index && mesh.material && mesh.youngs_modulus),
-              "mesh cell tables missing");
-
+  check_mesh(comm, mesh);
   ResultWriter writer(path, comm);
-  writer.num_points_ = p.global_rows;
-  writer.num_cells_ = c.global_rows;
+  writer.num_points_ = mesh.points.global_rows;
+  writer.num_cells_ = mesh.cells.global_rows;
   const std::string tmp = path + ".tmp";
   {
     H5File f = H5File::create(tmp, comm);
     f.write_attribute("/", "format", kFormatName);
     f.write_attribute("/", "format_version", kFormatVersion);
-
-    f.write_rows("/mesh/points", p.global_rows, 3, p.row_offset, p.local_rows, mesh.positions);
-    f.write_rows("/mesh/cells", c.global_rows, 8, c.row_offset, c.local_rows, mesh.connectivity);
-    f.write_rows("/mesh/cell_lattice_index", c.global_rows, 3, c.row_offset, c.local_rows,
-                 mesh.lattice_index);
-    f.write_rows("/mesh/cell_material", c.global_rows, 0, c.row_offset, c.local_rows,
-                 mesh.material);
-    f.write_rows("/mesh/cell_youngs_modulus", c.global_rows, 0, c.row_offset, c.local_rows,
-                 mesh.youngs_modulus);
-    f.write_attribute("/mesh/points", "unit", "m");
-    f.write_attribute("/mesh/cell_youngs_modulus", "unit", "Pa");
-    const LatticeSpec& l = mesh.lattice;
-    f.write_attribute("/mesh", "lattice_origin",
-                      std::vector<double>{l.origin.x(), l.origin.y(), l.origin.z()});
-    f.write_attribute("/mesh", "lattice_h", l.h);
-    f.write_attribute("/mesh", "lattice_dims",
-                      std::vector<std::int64_t>{l.dims[0], l.dims[1], l.dims[2]});
-    f.write_attribute("/mesh", "num_points", p.global_rows);
-    f.write_attribute("/mesh", "num_cells", c.global_rows);
+    write_mesh_group(f, "/mesh", mesh);
 
     f.write_string_dataset("/input/deck", run.deck);
     f.write_string_dataset("/input/command_line", run.command_line);
@@ -337,9 +437,8 @@ ResultWriter ResultWriter::open(const std::string& path, MPI_Comm comm) {
   H5File f = H5File::open(path, comm, H5File::Access::kReadOnly);
   if (!f.has_attribute("/", "format") || f.read_attribute_string("/", "format") != kFormatName)
     throw std::runtime_error("output: '" + path + "' is not a hexcut result file");
-  writer.num_points_ = f.dims("/mesh/points").at(0);
-  writer.num_cells_ = f.dims("/mesh/cells").at(0);
   writer.last_complete_step_ = f.read_attribute_int64("/steps", "last_complete_step");
+  writer.use_mesh(f, mesh_of_last_complete_step(f));
   f.close();
   return writer;
 }
@@ -353,6 +452,21 @@ ResultWriter::~ResultWriter() {
     } catch (...) {
     }
   }
+}
+
+void ResultWriter::use_mesh(H5File& f, const std::string& mesh) {
+  if (!f.exists(mesh + "/points") || !f.exists(mesh + "/cells"))
+    throw std::runtime_error("output: mesh '" + mesh + "' named by a step of '" + path_ +
+                             "' does not exist");
+  num_points_ = f.dims(mesh + "/points").at(0);
+  num_cells_ = f.dims(mesh + "/cells").at(0);
+  mesh_path_ = mesh;
+}
+
+void ResultWriter::require_open_step(std::int64_t step, const std::string& what) const {
+  if (!step_open_ || step != open_step_)
+    throw std::logic_error("output: " + what + " written for step " + std::to_string(step) +
+                           ", which is not the open step");
 }
 
 void ResultWriter::open_file() {
@@ -370,13 +484,31 @@ void ResultWriter::begin_step(std::int64_t step, double time) {
                            std::to_string(open_step_) + " is open");
   const std::string group = step_group(step);
   open_file();
-  if (file_.exists(group)) file_.delete_link(group);
+  if (file_.exists(group)) {
+    const std::string owned = group + "/mesh";
+    if (file_.is_group(owned)) {
+      // Deleting the group deletes its mesh: no other complete step may use it.
+      for (const std::string& name : file_.list("/steps")) {
+        const std::string other = "/steps/" + name;
+        if (other == group || !all_digits(name) || !file_.is_group(other)) continue;
+        if (is_complete(file_, other) && mesh_of(file_, other) == owned) {
+          close_file();
+          throw std::logic_error("output: begin_step(" + std::to_string(step) +
+                                 ") would delete the mesh " + owned + " that step " + name +
+                                 " uses (truncate_steps_after first)");
+        }
+      }
+      if (mesh_path_ == owned) use_mesh(file_, mesh_of_last_complete_step(file_, group));
+    }
+    file_.delete_link(group);
+  }
   file_.create_group(group);
   file_.write_attribute(group, "step", step);
   file_.write_attribute(group, "time", time);
   file_.write_attribute(group, "complete", std::int64_t{0});
-  file_.write_attribute(group, "mesh", "/mesh");
+  file_.write_attribute(group, "mesh", mesh_path_);
   step_open_ = true;
+  step_has_fields_ = false;
   open_step_ = step;
 }
 
@@ -384,11 +516,14 @@ void ResultWriter::write_field(std::int64_t step, const std::string& name, const
                                std::int64_t global_rows, int cols, std::int64_t row_offset,
                                std::int64_t local_rows, const double* data,
                                const std::string& unit) {
-  if (!step_open_ || step != open_step_)
-    throw std::logic_error("output: field '" + name + "' written for step " + std::to_string(step) +
-                           ", which is not the open step");
+  require_open_step(step, "field '" + name + "'");
   validate_name(name);
   require(cols >= 1, "field '" + name + "' needs cols >= 1");
+  // "mesh" and "surface" are the step's subgroups, not fields.
+  require(name != "mesh" && name != "surface", "'" + name + "' is reserved, not a field name");
+  require_cover(comm_, Slab{global_rows, row_offset, local_rows},
+                std::string(centering) + " field '" + name + "' (mesh " + mesh_path_ + ")");
+  step_has_fields_ = true;
   const std::string path = step_group(step) + "/" + name;
   file_.write_rows(path, global_rows, cols == 1 ? 0 : cols, row_offset, local_rows, data);
   file_.write_attribute(path, "centering", centering);
@@ -407,6 +542,62 @@ void ResultWriter::write_cell_field(std::int64_t step, const std::string& name, 
   write_field(step, name, "cell", num_cells_, cols, row_offset, local_rows, data, unit);
 }
 
+void ResultWriter::write_mesh(std::int64_t step, const MeshData& mesh) {
+  require_open_step(step, "mesh");
+  if (step_has_fields_)
+    throw std::logic_error("output: write_mesh for step " + std::to_string(step) +
+                           " after a field of that step (the fields would not match the mesh)");
+  check_mesh(comm_, mesh);
+  // Stale indices into the previous (smaller) point table are the likely error after a
+  // topology change; catch them here rather than in the viewer.
+  require_all(
+      comm_,
+      mesh.cells.local_rows == 0 ||
+          all_in_range(mesh.connectivity, 8 * mesh.cells.local_rows, 0, mesh.points.global_rows),
+      "mesh connectivity refers to a point outside [0, n_points)");
+  const std::string group = step_group(step);
+  const std::string base = group + "/mesh";
+  write_mesh_group(file_, base, mesh);
+  file_.write_attribute(base, "step", step);
+  file_.write_attribute(group, "mesh", base);
+  mesh_path_ = base;
+  num_points_ = mesh.points.global_rows;
+  num_cells_ = mesh.cells.global_rows;
+}
+
+void ResultWriter::write_surface(std::int64_t step, const SurfaceData& s) {
+  require_open_step(step, "surface");
+  const Slab& v = s.vertices;
+  const Slab& t = s.faces;
+  require_same(comm_, v.global_rows, "the surface's vertex count");
+  require_same(comm_, t.global_rows, "the surface's triangle count");
+  require_cover(comm_, v, "surface vertices");
+  require_cover(comm_, t, "surface triangles");
+  require_all(comm_, v.local_rows == 0 || (s.positions && s.owner_cell),
+              "surface vertex tables missing");
+  require_all(comm_, t.local_rows == 0 || (s.triangles && s.cut_id),
+              "surface triangle tables missing");
+  require_all(comm_, v.local_rows == 0 || all_in_range(s.owner_cell, v.local_rows, 0, num_cells_),
+              "surface owner_cell outside [0, n_cells) of the current mesh");
+  require_all(comm_,
+              t.local_rows == 0 || all_in_range(s.triangles, 3 * t.local_rows, 0, v.global_rows),
+              "surface triangle refers to a vertex outside [0, n_vertices)");
+  require_all(comm_,
+              t.local_rows == 0 ||
+                  all_in_range(s.cut_id, t.local_rows, 0, std::numeric_limits<std::int32_t>::max()),
+              "surface cut_id < 0");
+  const std::string base = step_group(step) + "/surface";
+  file_.write_rows(base + "/points", v.global_rows, 3, v.row_offset, v.local_rows, s.positions);
+  file_.write_rows(base + "/owner_cell", v.global_rows, 0, v.row_offset, v.local_rows,
+                   s.owner_cell);
+  file_.write_rows(base + "/triangles", t.global_rows, 3, t.row_offset, t.local_rows, s.triangles);
+  file_.write_rows(base + "/cut_id", t.global_rows, 0, t.row_offset, t.local_rows, s.cut_id);
+  file_.write_attribute(base + "/points", "unit", "m");
+  file_.write_attribute(base, "num_points", v.global_rows);
+  file_.write_attribute(base, "num_triangles", t.global_rows);
+  file_.write_attribute(base, "mesh", mesh_path_);
+}
+
 void ResultWriter::end_step() {
   if (!step_open_) throw std::logic_error("output: end_step without begin_step");
   const std::string group = step_group(open_step_);
@@ -416,6 +607,7 @@ void ResultWriter::end_step() {
   file_.write_attribute("/steps", "last_complete_step", last_complete_step_);
   file_.flush();
   step_open_ = false;
+  step_has_fields_ = false;
   open_step_ = -1;
   close_file();
   rewrite_xdmf();
@@ -446,6 +638,19 @@ void ResultWriter::write_checkpoint(std::int64_t step, double time, std::int64_t
                                     std::int64_t local_points, const double* u, const double* v,
                                     const double* a, const Slab& links, int link_cols,
                                     const std::int32_t* link_data) {
+  write_checkpoint(step, time, Slab{num_points_, point_offset, local_points}, u, v, a, links,
+                   link_cols, link_data);
+}
+
+void ResultWriter::write_checkpoint(std::int64_t step, double time, const Slab& points,
+                                    const double* u, const double* v, const double* a,
+                                    const Slab& links, int link_cols,
+                                    const std::int32_t* link_data) {
+  require_same(comm_, points.global_rows, "the checkpoint's point count");
+  require_cover(
+      comm_, points,
+      "checkpoint (current mesh " + mesh_path_ + ": " + std::to_string(num_points_) + " points)");
+  const std::int64_t point_offset = points.row_offset, local_points = points.local_rows;
   const bool opened_here = !file_.is_open();
   open_file();
   std::int64_t current = file_.has_attribute("/checkpoint", "current_slot")
@@ -456,9 +661,9 @@ void ResultWriter::write_checkpoint(std::int64_t step, double time, std::int64_t
   // Invalidate the slot before overwriting it.
   file_.create_group(base);
   file_.write_attribute(base, "complete", std::int64_t{0});
-  file_.write_rows(base + "/displacement", num_points_, 3, point_offset, local_points, u);
-  file_.write_rows(base + "/velocity", num_points_, 3, point_offset, local_points, v);
-  file_.write_rows(base + "/acceleration", num_points_, 3, point_offset, local_points, a);
+  file_.write_rows(base + "/displacement", points.global_rows, 3, point_offset, local_points, u);
+  file_.write_rows(base + "/velocity", points.global_rows, 3, point_offset, local_points, v);
+  file_.write_rows(base + "/acceleration", points.global_rows, 3, point_offset, local_points, a);
   if (links.global_rows > 0) {
     file_.write_rows(base + "/topology/links", links.global_rows, link_cols, links.row_offset,
                      links.local_rows, link_data);
@@ -537,14 +742,15 @@ void ResultWriter::truncate_steps_after(std::int64_t step) {
       const std::string group = "/steps/" + name;
       if (number > step) {
         file_.delete_link(group);
-      } else if (file_.has_attribute(group, "complete") &&
-                 file_.read_attribute_int64(group, "complete") == 1) {
+      } else if (is_complete(file_, group)) {
         last = std::max(last, number);
       }
     }
   }
   file_.write_attribute("/steps", "last_complete_step", last);
   last_complete_step_ = last;
+  // Steps after `step` are gone, and with them the meshes they introduced.
+  use_mesh(file_, last >= 0 ? mesh_of(file_, step_group(last)) : std::string("/mesh"));
   if (file_.exists("/solver_history/step")) {
     const std::int64_t rows = file_.dims("/solver_history/step").at(0);
     std::vector<std::int64_t> steps(static_cast<std::size_t>(rows));

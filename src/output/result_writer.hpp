@@ -39,6 +39,18 @@ struct MeshData {
   const double* youngs_modulus = nullptr;       // cells.local_rows [Pa]
 };
 
+/// One output step's triangle surface (outer boundary + cut faces) in the DEFORMED
+/// configuration, as this rank's slabs of its point and triangle tables. Its points are
+/// its own (not rows of the mesh's point table): the surface is for viewing.
+struct SurfaceData {
+  Slab vertices;                             // rows of the step's surface point table
+  const double* positions = nullptr;         // vertices.local_rows x 3, deformed [m]
+  const std::int32_t* owner_cell = nullptr;  // vertices.local_rows: cell each vertex moves with
+  Slab faces;                                // rows of the triangle table
+  const std::int64_t* triangles = nullptr;   // faces.local_rows x 3, global 0-based vertex rows
+  const std::int32_t* cut_id = nullptr;      // faces.local_rows: 0 = original boundary, k = cut k
+};
+
 /// What produced the run; stored under /input.
 struct RunInfo {
   std::string deck;          // the YAML deck text, verbatim
@@ -82,7 +94,9 @@ class ResultWriter {
   /// writes an XDMF index with no steps. `path` never names a half-written file.
   static ResultWriter create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
                              const RunInfo& run);
-  /// Re-opens an existing result file (restart). Reads the mesh sizes from it.
+  /// Re-opens an existing result file (restart). The current mesh is the one of the
+  /// highest-numbered complete step ("/mesh" when there is none); num_points()/num_cells()
+  /// are its sizes.
   static ResultWriter open(const std::string& path, MPI_Comm comm);
 
   ResultWriter(ResultWriter&&) noexcept = default;
@@ -91,16 +105,40 @@ class ResultWriter {
 
   const std::string& path() const { return path_; }
   std::string xdmf_path() const { return xdmf_path_for(path_); }
+  /// Sizes of the current mesh (the one point/cell fields and checkpoints are checked
+  /// against).
   std::int64_t num_points() const { return num_points_; }
   std::int64_t num_cells() const { return num_cells_; }
+  /// Group of the current mesh: "/mesh", or "/steps/NNNNNN/mesh" of the step whose
+  /// write_mesh introduced it. No I/O.
+  const std::string& mesh_path() const { return mesh_path_; }
   /// Largest step number marked complete (-1: none). Cached; no I/O.
   std::int64_t last_complete_step() const { return last_complete_step_; }
 
   /// Opens the file and starts output step `step` at `time` [s]: creates /steps/NNNNNN
-  /// (replacing an existing group of that number) with complete = 0.
+  /// (replacing an existing group of that number) with complete = 0 and mesh = the
+  /// current mesh. Replacing a group that holds a mesh (written by write_mesh) deletes
+  /// that mesh: when it was current, the current mesh falls back to the one of the
+  /// highest-numbered other complete step (call write_mesh again if the topology is still
+  /// the new one); when another complete step uses it, std::logic_error is thrown before
+  /// anything changes (truncate_steps_after first).
   void begin_step(std::int64_t step, double time);
-  /// Writes a point field (global rows = num_points()) of the open step. cols == 1 stores
-  /// a 1-D dataset. `step` must be the open step. `unit` is stored as an attribute.
+  /// Writes a new mesh (the topology changed, e.g. cuts split vertex copies) into the
+  /// open step as /steps/NNNNNN/mesh, with the same datasets and attributes as /mesh, and
+  /// makes it current: the step (and every later step) records it in its `mesh`
+  /// attribute, and num_points()/num_cells(), the point/cell fields and the checkpoints
+  /// follow its sizes. Must come before the step's point/cell fields (std::logic_error
+  /// otherwise). Cell connectivity outside [0, mesh.points.global_rows) is rejected.
+  void write_mesh(std::int64_t step, const MeshData& mesh);
+  /// Writes the triangle surface of the open step under /steps/NNNNNN/surface (replacing
+  /// one written before in this step). Triangles must index [0, vertices.global_rows),
+  /// owner_cell [0, num_cells()) of the current mesh (so after write_mesh when the step
+  /// has both), cut_id must be >= 0. A step without a call has no surface.
+  void write_surface(std::int64_t step, const SurfaceData& surface);
+  /// Writes a point field (global rows = num_points() of the current mesh; the ranks'
+  /// slabs must add up to it) of the open step. cols == 1 stores a 1-D dataset. `step`
+  /// must be the open step; "mesh" and "surface" are not field names. `unit` is stored as
+  /// an attribute.
   void write_point_field(std::int64_t step, const std::string& name, int cols,
                          std::int64_t row_offset, std::int64_t local_rows, const double* data,
                          const std::string& unit = "");
@@ -117,14 +155,20 @@ class ResultWriter {
   /// or outside an open step (outside: opens and closes the file).
   void append_solve(const SolveRecord& record);
 
-  /// Writes a checkpoint: u, v, a (num_points() x 3 each; this rank's rows
-  /// [point_offset, point_offset + local_points)) and an opaque int32 table
-  /// topology/links (links.global_rows x link_cols, link_cols == 0: 1-D; skipped when
+  /// Writes a checkpoint: u, v, a (num_points() x 3 each, the current mesh's point
+  /// count; this rank's rows [point_offset, point_offset + local_points); the ranks' rows
+  /// must add up to num_points()) and an opaque int32 table topology/links
+  /// (links.global_rows x link_cols, link_cols == 0: 1-D; skipped when
   /// links.global_rows == 0). Written into the inactive one of two slots, which becomes
   /// current only after its data is flushed, so the previous checkpoint survives a kill.
   void write_checkpoint(std::int64_t step, double time, std::int64_t point_offset,
                         std::int64_t local_points, const double* u, const double* v,
                         const double* a, const Slab& links = {}, int link_cols = 0,
+                        const std::int32_t* link_data = nullptr);
+  /// As above with an explicit point count (points.global_rows rows): for a checkpoint
+  /// taken after the topology changed but before the next output step wrote its mesh.
+  void write_checkpoint(std::int64_t step, double time, const Slab& points, const double* u,
+                        const double* v, const double* a, const Slab& links = {}, int link_cols = 0,
                         const std::int32_t* link_data = nullptr);
   /// Header of the current checkpoint, or nullopt when there is none.
   std::optional<CheckpointInfo> checkpoint_info();
@@ -136,7 +180,10 @@ class ResultWriter {
                                  std::int32_t* link_data = nullptr);
 
   /// Restart: deletes every /steps group numbered > step and the /solver_history rows
-  /// with step > step, updates last_complete_step and rewrites the XDMF index.
+  /// with step > step, updates last_complete_step and rewrites the XDMF index. The
+  /// current mesh becomes the one of the highest-numbered remaining complete step
+  /// ("/mesh" when none), so dropping the step that introduced a mesh returns to the
+  /// previous one.
   void truncate_steps_after(std::int64_t step);
   /// Rewrites the XDMF index (rank 0 writes; collective so all ranks see errors).
   void rewrite_xdmf();
@@ -149,14 +196,19 @@ class ResultWriter {
                    std::int64_t global_rows, int cols, std::int64_t row_offset,
                    std::int64_t local_rows, const double* data, const std::string& unit);
   void append_solve_open(const SolveRecord& record);
+  void require_open_step(std::int64_t step, const std::string& what) const;
+  /// Makes the mesh group `mesh` of `f` current: reads its sizes.
+  void use_mesh(H5File& f, const std::string& mesh);
 
   std::string path_;
   MPI_Comm comm_ = MPI_COMM_NULL;
   H5File file_;
   std::int64_t num_points_ = 0;
   std::int64_t num_cells_ = 0;
+  std::string mesh_path_ = "/mesh";
   std::int64_t last_complete_step_ = -1;
   bool step_open_ = false;
+  bool step_has_fields_ = false;  // a point/cell field was written in the open step
   std::int64_t open_step_ = -1;
 };
 

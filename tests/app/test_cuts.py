@@ -1,5 +1,6 @@
 """Cuts from the command line: the cut bar example separates (the result file carries
-the split mesh from the cut step on, and the free part falls), a static deck with a
+the split mesh from the cut step on, the free part falls, the cut faces appear in the
+surface with their cut id, and 2 ranks write the same file as 1), a static deck with a
 piece the cut leaves unsupported stops with exit 3 naming the piece, and bad cut
 entries give 'deck.yaml:LINE: message' and exit 2."""
 import os
@@ -47,6 +48,23 @@ def main():
         fall = -u[free, 2].mean()
         check(fall > 0.3 and np.abs(u[stub]).max() < 0.05,
               f"free part fell {fall:.3f} m by t = 0.4 s; clamped stub moved {np.abs(u[stub]).max():.2e} m")
+        with h5py.File(f"{d}/results/cut_bar.h5", "r") as f:
+            ids0 = set(f["steps/000016/surface/cut_id"][:].tolist())
+            ids1 = f["steps/000020/surface/cut_id"][:]
+        # 4 x 4 cut links, one quad (2 triangles) on each side.
+        check(ids0 == {0} and (ids1 == 1).sum() == 64, f"cut faces in the surface: {ids0}, {(ids1 == 1).sum()}")
+        d2 = tempdir()
+        rc2, _, err2 = run([os.path.join(SOURCE, "input/examples/cut_bar.yaml")], cwd=d2, ranks=2)
+        worst = 1.0
+        if rc2 == 0:
+            with h5py.File(f"{d}/results/cut_bar.h5", "r") as a, h5py.File(f"{d2}/results/cut_bar.h5", "r") as b:
+                worst = 0.0
+                for name in ("displacement", "surface/points"):
+                    x, y = a["steps/000080/" + name][:], b["steps/000080/" + name][:]
+                    worst = max(worst, np.abs(x - y).max() / np.abs(x).max())
+                same = all((a["steps/000080/surface/" + k][:] == b["steps/000080/surface/" + k][:]).all()
+                           for k in ("triangles", "cut_id", "owner_cell"))
+        check(rc2 == 0 and same and worst < 1e-8, f"2 ranks write the same result (max rel. diff {worst:.1e}): {err2.strip()}")
 
     # A static deck whose cut leaves the tip unsupported: exit 3 naming the piece.
     deck = write(d, "static_cut.yaml", BAR % PLANE)

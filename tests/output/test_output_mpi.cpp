@@ -9,11 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "cut_fixture.hpp"
 #include "output/h5_file.hpp"
 #include "output/result_writer.hpp"
 
 namespace fs = std::filesystem;
 using namespace hexcut::output;
+using namespace hexcut::output::testing;
 
 namespace {
 
@@ -225,6 +227,111 @@ TEST(OutputMpi, ResultWriterFieldsAndCheckpointInParallel) {
     H5File f = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
     EXPECT_EQ(f.list("/steps"), (std::vector<std::string>{"000000"}));
     EXPECT_EQ(f.read_attribute_int64("/steps", "last_complete_step"), 0);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+}
+
+// Step 2 splits vertex copies (a new mesh with more points); surfaces on steps 1 and 3;
+// every table written from uneven slabs (rank 0 owns few or no rows) and read back with
+// other partitions; restart on 2 ranks.
+TEST(OutputMpi, MeshChangesAndSurfacesInParallel) {
+  ASSERT_GE(size(), 2);
+  fs::path dir = scratch_dir("cuts");
+  const std::string path = (dir / "run.h5").string();
+  hexcut::LatticeSpec lattice;
+  lattice.h = 0.5;
+  lattice.dims = {4, 2, 1};
+  const FullMesh before = lattice_mesh(lattice), after = lattice_mesh(lattice, 3);
+  ASSERT_EQ(before.num_points, 30);
+  ASSERT_EQ(after.num_points, 36);
+  const Slab P0 = split(30, 7), P1 = split(36, 0), C = split(8, 3);
+  MeshSlices m0(before, P0, C), m1(after, P1, C);
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_WORLD, m0.data, {"deck\n", "hexcut"});
+
+  const FullSurface whole = box_surface(lattice, {Box{0, 4}}, {0.0, 0.0, 0.125});
+  const FullSurface halves =
+      box_surface(lattice, {Box{0, 3, 0, 1}, Box{3, 4, 1, 0}}, {0.0, 0.0, 0.25});
+  SurfaceSlices s1(whole, split(8, 8), split(12, 5));  // rank 1 has no vertex rows
+  SurfaceSlices s3(halves, split(16, 3), split(24, 0));
+
+  auto field = [](int kind, const Slab& s) {
+    return rows_of<double>(kind, s.row_offset, s.local_rows, 3);
+  };
+  w.begin_step(1, 0.25);
+  auto u1 = field(11, P0);
+  w.write_point_field(1, "displacement", 3, P0.row_offset, P0.local_rows, u1.data(), "m");
+  w.write_surface(1, s1.data);
+  w.end_step();
+
+  w.begin_step(2, 0.5);
+  w.write_mesh(2, m1.data);
+  EXPECT_EQ(w.num_points(), 36);
+  auto u2 = field(12, P1);
+  w.write_point_field(2, "displacement", 3, P1.row_offset, P1.local_rows, u2.data(), "m");
+  w.write_checkpoint(2, 0.5, P1.row_offset, P1.local_rows, u2.data(), u2.data(), u2.data());
+  w.end_step();
+
+  w.begin_step(3, 0.75);
+  auto u3 = field(13, P1);
+  w.write_point_field(3, "displacement", 3, P1.row_offset, P1.local_rows, u3.data(), "m");
+  w.write_surface(3, s3.data);
+  w.end_step();
+
+  {  // read back on 2 ranks with other partitions
+    H5File f = H5File::open(path, MPI_COMM_WORLD, H5File::Access::kReadOnly);
+    EXPECT_EQ(f.read_attribute_string("/steps/000003", "mesh"), "/steps/000002/mesh");
+    const Slab R = split(36, 30), RC = split(8, 0);
+    std::vector<double> pts(static_cast<std::size_t>(R.local_rows * 3));
+    f.read_rows("/steps/000002/mesh/points", 36, 3, R.row_offset, R.local_rows, pts.data());
+    EXPECT_EQ(pts, rows(after.points, R, 3));
+    std::vector<std::int64_t> cells(static_cast<std::size_t>(RC.local_rows * 8));
+    f.read_rows("/steps/000002/mesh/cells", 8, 8, RC.row_offset, RC.local_rows, cells.data());
+    EXPECT_EQ(cells, rows(after.cells, RC, 8));
+    f.read_rows("/steps/000003/displacement", 36, 3, R.row_offset, R.local_rows, pts.data());
+    EXPECT_EQ(pts, rows_of<double>(13, R.row_offset, R.local_rows, 3));
+    const Slab RT = split(24, 20), RV = split(16, 1);
+    std::vector<std::int64_t> tris(static_cast<std::size_t>(RT.local_rows * 3));
+    f.read_rows("/steps/000003/surface/triangles", 24, 3, RT.row_offset, RT.local_rows,
+                tris.data());
+    EXPECT_EQ(tris, rows(halves.triangles, RT, 3));
+    std::vector<std::int32_t> cut(static_cast<std::size_t>(RT.local_rows));
+    f.read_rows("/steps/000003/surface/cut_id", 24, 0, RT.row_offset, RT.local_rows, cut.data());
+    EXPECT_EQ(cut, rows(halves.cut_id, RT, 1));
+    std::vector<double> sp(static_cast<std::size_t>(RV.local_rows * 3));
+    f.read_rows("/steps/000003/surface/points", 16, 3, RV.row_offset, RV.local_rows, sp.data());
+    EXPECT_EQ(sp, rows(halves.positions, RV, 3));
+    std::vector<std::int32_t> owner(static_cast<std::size_t>(RV.local_rows));
+    f.read_rows("/steps/000003/surface/owner_cell", 16, 0, RV.row_offset, RV.local_rows,
+                owner.data());
+    EXPECT_EQ(owner, rows(halves.owner_cell, RV, 1));
+    f.close();
+  }
+  if (rank() == 0) {  // and on 1 rank
+    H5File f = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+    std::vector<double> sp(8 * 3);
+    f.read_rows("/steps/000001/surface/points", 8, 3, 0, 8, sp.data());
+    EXPECT_EQ(sp, whole.positions);
+    EXPECT_EQ(f.dims("/mesh/points"), (std::vector<std::int64_t>{30, 3}));
+    EXPECT_FALSE(f.exists("/steps/000002/surface"));
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+
+  // Restart on 2 ranks: the new point count, its checkpoint, then back to the original.
+  ResultWriter restarted = ResultWriter::open(path, MPI_COMM_WORLD);
+  EXPECT_EQ(restarted.num_points(), 36);
+  EXPECT_EQ(restarted.mesh_path(), "/steps/000002/mesh");
+  const Slab R = split(36, 36);  // rank 0 reads everything
+  std::vector<double> u(static_cast<std::size_t>(R.local_rows * 3)), v(u.size()), a(u.size());
+  CheckpointInfo info =
+      restarted.read_checkpoint(R.row_offset, R.local_rows, u.data(), v.data(), a.data());
+  EXPECT_EQ(info.num_points, 36);
+  EXPECT_EQ(u, rows_of<double>(12, R.row_offset, R.local_rows, 3));
+  restarted.truncate_steps_after(1);
+  EXPECT_EQ(restarted.num_points(), 30);
+  EXPECT_EQ(restarted.mesh_path(), "/mesh");
+  if (rank() == 0) {
+    H5File f = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+    EXPECT_EQ(f.list("/steps"), (std::vector<std::string>{"000001"}));
   }
   MPI_Barrier(MPI_COMM_WORLD);
 }

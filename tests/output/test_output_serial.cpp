@@ -3,6 +3,7 @@
 #include <mpi.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -11,11 +12,13 @@
 #include <string>
 #include <vector>
 
+#include "cut_fixture.hpp"
 #include "output/h5_file.hpp"
 #include "output/result_writer.hpp"
 
 namespace fs = std::filesystem;
 using namespace hexcut::output;
+using namespace hexcut::output::testing;
 
 namespace {
 
@@ -220,6 +223,7 @@ TEST(OutputResultWriter, CreateIsAtomicAndStepsCloseTheFile) {
   w.end_step();
   EXPECT_EQ(w.last_complete_step(), 0);
   EXPECT_NE(read_text(dir / "run.xmf").find("run.h5:/steps/000000/stress"), std::string::npos);
+  EXPECT_EQ(read_text(dir / "run.xmf").find("hexcut_surface"), std::string::npos);  // none
   EXPECT_FALSE(fs::exists(dir / "run.xmf.tmp"));
 
   // The file is closed between steps: another (read-only) open sees the complete step.
@@ -312,4 +316,281 @@ TEST(OutputResultWriter, XdmfPathAndStepNames) {
   EXPECT_EQ(xdmf_path_for("run.hdf5"), "run.hdf5.xmf");
   EXPECT_EQ(step_group(42), "/steps/000042");
   EXPECT_THROW(step_group(-1), std::invalid_argument);
+}
+
+// ------------------------------------------------------------------ topology changes
+
+namespace {
+
+/// 3 x 1 x 1 cells of edge 0.5: 16 points; split at i = 2: 20 points.
+hexcut::LatticeSpec row_lattice() {
+  hexcut::LatticeSpec l;
+  l.origin = {1.0, 2.0, 3.0};
+  l.h = 0.5;
+  l.dims = {3, 1, 1};
+  return l;
+}
+
+Slab all_rows(std::int64_t n) {
+  return Slab{n, 0, n};
+}
+
+/// The <Grid Name="name" ...> ... </Grid> element of an XDMF text ("" when absent).
+std::string grid_text(const std::string& xmf, const std::string& name) {
+  const auto begin = xmf.find("<Grid Name=\"" + name + "\"");
+  if (begin == std::string::npos) return "";
+  return xmf.substr(begin, xmf.find("</Grid>", begin) - begin);
+}
+
+/// Steps 1..3 of a run whose step 2 splits the vertex copies; surfaces on steps 1 and 3.
+void write_cut_run(const std::string& path) {
+  const hexcut::LatticeSpec lattice = row_lattice();
+  const FullMesh before = lattice_mesh(lattice), after = lattice_mesh(lattice, 2);
+  MeshSlices m0(before, all_rows(16), all_rows(3));
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  EXPECT_EQ(w.mesh_path(), "/mesh");
+
+  w.begin_step(1, 0.25);
+  std::vector<double> u16 = table<double>(16, 3), s3 = table<double>(3, 6);
+  w.write_point_field(1, "displacement", 3, 0, 16, u16.data(), "m");
+  w.write_cell_field(1, "stress", 6, 0, 3, s3.data(), "Pa");
+  const FullSurface whole = box_surface(lattice, {Box{0, 3}}, {0.01, 0.0, 0.0});
+  SurfaceSlices s1(whole, all_rows(8), all_rows(12));
+  w.write_surface(1, s1.data);
+  w.end_step();
+
+  w.begin_step(2, 0.5);
+  MeshSlices m1(after, all_rows(20), all_rows(3));
+  w.write_mesh(2, m1.data);
+  EXPECT_EQ(w.num_points(), 20);
+  EXPECT_EQ(w.num_cells(), 3);
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  std::vector<double> u20 = table<double>(20, 3);
+  // The previous mesh's slab no longer covers the point table.
+  EXPECT_THROW(w.write_point_field(2, "displacement", 3, 0, 16, u16.data()), std::invalid_argument);
+  w.write_point_field(2, "displacement", 3, 0, 20, u20.data(), "m");
+  w.write_cell_field(2, "stress", 6, 0, 3, s3.data(), "Pa");
+  // Checkpoints follow the current mesh.
+  EXPECT_THROW(w.write_checkpoint(2, 0.5, 0, 16, u16.data(), u16.data(), u16.data()),
+               std::invalid_argument);
+  w.write_checkpoint(2, 0.5, 0, 20, u20.data(), u20.data(), u20.data());
+  w.end_step();
+
+  w.begin_step(3, 0.75);
+  w.write_point_field(3, "displacement", 3, 0, 20, u20.data(), "m");
+  const FullSurface split =
+      box_surface(lattice, {Box{0, 2, 0, 1}, Box{2, 3, 1, 0}}, {0.02, 0.0, 0.0});
+  SurfaceSlices s3surf(split, all_rows(16), all_rows(24));
+  w.write_surface(3, s3surf.data);
+  w.end_step();
+  EXPECT_EQ(w.num_points(), 20);
+}
+
+}  // namespace
+
+TEST(OutputResultWriter, MeshPerTopologyVersionAndSurfaces) {
+  fs::path dir = scratch_dir("cuts");
+  const std::string path = (dir / "run.h5").string();
+  write_cut_run(path);
+  {
+    H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+    EXPECT_EQ(r.read_attribute_string("/steps/000001", "mesh"), "/mesh");
+    EXPECT_EQ(r.read_attribute_string("/steps/000002", "mesh"), "/steps/000002/mesh");
+    EXPECT_EQ(r.read_attribute_string("/steps/000003", "mesh"), "/steps/000002/mesh");
+    EXPECT_EQ(r.dims("/mesh/points"), (std::vector<std::int64_t>{16, 3}));
+    EXPECT_EQ(r.dims("/steps/000002/mesh/points"), (std::vector<std::int64_t>{20, 3}));
+    EXPECT_EQ(r.dims("/steps/000002/mesh/cells"), (std::vector<std::int64_t>{3, 8}));
+    EXPECT_EQ(r.read_attribute_int64("/steps/000002/mesh", "num_points"), 20);
+    EXPECT_EQ(r.read_attribute_int64("/steps/000002/mesh", "step"), 2);
+    EXPECT_EQ(r.read_attribute_int64s("/steps/000002/mesh", "lattice_dims"),
+              (std::vector<std::int64_t>{3, 1, 1}));
+    EXPECT_EQ(r.read_attribute_string("/steps/000002/mesh/points", "unit"), "m");
+    std::vector<std::int64_t> cells(24);
+    r.read_rows("/steps/000002/mesh/cells", 3, 8, 0, 3, cells.data());
+    EXPECT_EQ(cells, lattice_mesh(row_lattice(), 2).cells);
+    EXPECT_EQ(r.dims("/steps/000003/displacement"), (std::vector<std::int64_t>{20, 3}));
+    EXPECT_FALSE(r.exists("/steps/000002/surface"));
+    EXPECT_EQ(r.dims("/steps/000003/surface/points"), (std::vector<std::int64_t>{16, 3}));
+    EXPECT_EQ(r.dims("/steps/000003/surface/triangles"), (std::vector<std::int64_t>{24, 3}));
+    EXPECT_EQ(r.dims("/steps/000003/surface/cut_id"), (std::vector<std::int64_t>{24}));
+    EXPECT_EQ(r.dims("/steps/000003/surface/owner_cell"), (std::vector<std::int64_t>{16}));
+    EXPECT_EQ(r.element_type("/steps/000003/surface/cut_id"),
+              (std::pair<std::string, int>("int", 4)));
+    EXPECT_EQ(r.element_type("/steps/000003/surface/triangles"),
+              (std::pair<std::string, int>("int", 8)));
+    EXPECT_EQ(r.read_attribute_int64("/steps/000003/surface", "num_triangles"), 24);
+    std::vector<std::int32_t> cut(24);
+    r.read_rows("/steps/000003/surface/cut_id", 24, 0, 0, 24, cut.data());
+    EXPECT_EQ(std::count(cut.begin(), cut.end(), 1), 4);
+    EXPECT_EQ(r.dims("/checkpoint/slot0/displacement"), (std::vector<std::int64_t>{20, 3}));
+  }
+  // The XDMF: each step's volume grid uses that step's mesh; surfaces on steps 1 and 3.
+  const std::string xmf = read_text(dir / "run.xmf");
+  const std::string g1 = grid_text(xmf, "step_000001"), g3 = grid_text(xmf, "step_000003");
+  EXPECT_NE(g1.find("run.h5:/mesh/points"), std::string::npos);
+  EXPECT_NE(g3.find("Dimensions=\"20 3\" NumberType=\"Float\" Precision=\"8\" "
+                    "Format=\"HDF\">run.h5:/steps/000002/mesh/points"),
+            std::string::npos)
+      << g3;
+  EXPECT_NE(g3.find("run.h5:/steps/000002/mesh/cells"), std::string::npos);
+  EXPECT_EQ(g3.find("run.h5:/mesh/"), std::string::npos);
+  EXPECT_NE(xmf.find("<Grid Name=\"hexcut_surface\""), std::string::npos);
+  const std::string s1 = grid_text(xmf, "surface_000001"), s3 = grid_text(xmf, "surface_000003");
+  EXPECT_NE(s1.find("TopologyType=\"Triangle\" NumberOfElements=\"12\""), std::string::npos);
+  EXPECT_NE(s3.find("run.h5:/steps/000003/surface/triangles"), std::string::npos);
+  EXPECT_NE(s3.find("<Attribute Name=\"cut_id\" AttributeType=\"Scalar\" Center=\"Cell\">"),
+            std::string::npos);
+  EXPECT_NE(s3.find("<Attribute Name=\"owner_cell\" AttributeType=\"Scalar\" Center=\"Node\">"),
+            std::string::npos);
+  EXPECT_EQ(grid_text(xmf, "surface_000002"), "");
+
+  // Restart: open() continues with the mesh of the last complete step.
+  ResultWriter w = ResultWriter::open(path, MPI_COMM_SELF);
+  EXPECT_EQ(w.num_points(), 20);
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  auto info = w.checkpoint_info();
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->num_points, 20);
+  w.truncate_steps_after(2);  // keeps the step that introduced the mesh
+  EXPECT_EQ(w.num_points(), 20);
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  w.truncate_steps_after(1);  // drops it: back to the original mesh
+  EXPECT_EQ(w.num_points(), 16);
+  EXPECT_EQ(w.mesh_path(), "/mesh");
+  EXPECT_EQ(w.last_complete_step(), 1);
+  const std::string xmf1 = read_text(dir / "run.xmf");
+  EXPECT_EQ(xmf1.find("/steps/000002"), std::string::npos);
+  EXPECT_EQ(grid_text(xmf1, "surface_000003"), "");
+  EXPECT_NE(grid_text(xmf1, "surface_000001"), "");
+  // And goes on with the original mesh.
+  w.begin_step(2, 0.5);
+  std::vector<double> u16 = table<double>(16, 3);
+  w.write_point_field(2, "displacement", 3, 0, 16, u16.data());
+  w.end_step();
+  H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  EXPECT_EQ(r.read_attribute_string("/steps/000002", "mesh"), "/mesh");
+  EXPECT_FALSE(r.exists("/steps/000002/mesh"));
+  r.close();
+  EXPECT_EQ(ResultWriter::open(path, MPI_COMM_SELF).num_points(), 16);
+}
+
+TEST(OutputResultWriter, OpenIgnoresTheMeshOfAnIncompleteStep) {
+  fs::path dir = scratch_dir("cuts_killed");
+  const std::string path = (dir / "run.h5").string();
+  const hexcut::LatticeSpec lattice = row_lattice();
+  {
+    MeshSlices m0(lattice_mesh(lattice), all_rows(16), all_rows(3));
+    ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+    w.begin_step(1, 0.25);
+    w.end_step();
+    w.begin_step(2, 0.5);
+    MeshSlices m1(lattice_mesh(lattice, 2), all_rows(20), all_rows(3));
+    w.write_mesh(2, m1.data);
+    w.end_step();
+    // Step 3 introduces another mesh but never completes (as if killed).
+    w.begin_step(3, 0.75);
+    MeshSlices m2(lattice_mesh(lattice, 1), all_rows(20), all_rows(3));
+    w.write_mesh(3, m2.data);
+  }
+  ResultWriter w = ResultWriter::open(path, MPI_COMM_SELF);
+  EXPECT_EQ(w.last_complete_step(), 2);
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  EXPECT_EQ(w.num_points(), 20);
+  w.truncate_steps_after(3);  // keeps the incomplete step 3, whose mesh is not used
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  EXPECT_EQ(read_text(dir / "run.xmf").find("step_000003"), std::string::npos);
+  // Rewriting step 3 deletes its stale mesh; the current mesh stays step 2's.
+  w.begin_step(3, 0.75);
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  w.end_step();
+  H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  EXPECT_FALSE(r.exists("/steps/000003/mesh"));
+  EXPECT_EQ(r.read_attribute_string("/steps/000003", "mesh"), "/steps/000002/mesh");
+}
+
+TEST(OutputResultWriter, MeshAndSurfaceMisuseThrows) {
+  fs::path dir = scratch_dir("cuts_misuse");
+  const std::string path = (dir / "run.h5").string();
+  const hexcut::LatticeSpec lattice = row_lattice();
+  MeshSlices m0(lattice_mesh(lattice), all_rows(16), all_rows(3));
+  MeshSlices m1(lattice_mesh(lattice, 2), all_rows(20), all_rows(3));
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  EXPECT_THROW(w.write_mesh(1, m1.data), std::logic_error);  // no open step
+  w.begin_step(1, 0.25);
+  EXPECT_THROW(w.write_mesh(2, m1.data), std::logic_error);  // not the open step
+  std::vector<double> u16 = table<double>(16, 3);
+  EXPECT_THROW(w.write_point_field(1, "mesh", 3, 0, 16, u16.data()), std::invalid_argument);
+  w.write_point_field(1, "displacement", 3, 0, 16, u16.data());
+  EXPECT_THROW(w.write_mesh(1, m1.data), std::logic_error);  // after a field
+  EXPECT_EQ(w.num_points(), 16);
+
+  const FullSurface box = box_surface(lattice, {Box{0, 3}}, {0, 0, 0});
+  SurfaceSlices bad(box, all_rows(8), all_rows(12));
+  bad.triangles[5] = 8;  // vertex rows are 0..7
+  EXPECT_THROW(w.write_surface(1, bad.data), std::invalid_argument);
+  bad.triangles[5] = 7;
+  bad.owner_cell[0] = 3;  // cells are 0..2
+  EXPECT_THROW(w.write_surface(1, bad.data), std::invalid_argument);
+  bad.owner_cell[0] = 0;
+  bad.cut_id[0] = -1;
+  EXPECT_THROW(w.write_surface(1, bad.data), std::invalid_argument);
+  bad.cut_id[0] = 0;
+  w.write_surface(1, bad.data);
+  w.end_step();
+
+  w.begin_step(2, 0.5);
+  MeshSlices broken(lattice_mesh(lattice, 2), all_rows(20), all_rows(3));
+  broken.cells[3] = 20;
+  EXPECT_THROW(w.write_mesh(2, broken.data), std::invalid_argument);
+  w.write_mesh(2, m1.data);
+  w.end_step();
+  w.begin_step(3, 0.75);
+  w.end_step();
+  // Step 3 uses step 2's mesh: rewriting step 2 would delete it.
+  EXPECT_THROW(w.begin_step(2, 0.5), std::logic_error);
+  EXPECT_FALSE(w.step_open());
+  EXPECT_EQ(w.mesh_path(), "/steps/000002/mesh");
+  // Once step 3 is gone, rewriting step 2 is allowed; its mesh goes with it.
+  w.truncate_steps_after(2);
+  w.begin_step(2, 0.5);
+  EXPECT_EQ(w.mesh_path(), "/mesh");
+  EXPECT_EQ(w.num_points(), 16);
+  w.write_mesh(2, m1.data);
+  EXPECT_EQ(w.num_points(), 20);
+  w.end_step();
+  EXPECT_EQ(ResultWriter::open(path, MPI_COMM_SELF).mesh_path(), "/steps/000002/mesh");
+}
+
+TEST(OutputResultWriter, CheckpointWithExplicitPointCount) {
+  fs::path dir = scratch_dir("cuts_checkpoint");
+  const std::string path = (dir / "run.h5").string();
+  MeshSlices m0(lattice_mesh(row_lattice()), all_rows(16), all_rows(3));
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  // After a cut between output steps: the writer's mesh still has 16 points.
+  std::vector<double> u = table<double>(20, 3);
+  w.write_checkpoint(5, 1.25, Slab{20, 0, 20}, u.data(), u.data(), u.data());
+  EXPECT_THROW(w.write_checkpoint(5, 1.25, Slab{20, 0, 19}, u.data(), u.data(), u.data()),
+               std::invalid_argument);
+  auto info = w.checkpoint_info();
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->num_points, 20);
+  std::vector<double> back(60), v(60), a(60);
+  w.read_checkpoint(0, 20, back.data(), v.data(), a.data());
+  EXPECT_EQ(back, u);
+}
+
+TEST(OutputResultWriter, EmptySurfaceIsNotIndexed) {
+  fs::path dir = scratch_dir("cuts_empty");
+  const std::string path = (dir / "run.h5").string();
+  MeshSlices m0(lattice_mesh(row_lattice()), all_rows(16), all_rows(3));
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  w.begin_step(0, 0.0);
+  w.write_surface(0, SurfaceData{});
+  w.end_step();
+  H5File r = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  EXPECT_EQ(r.dims("/steps/000000/surface/triangles"), (std::vector<std::int64_t>{0, 3}));
+  r.close();
+  const std::string xmf = read_text(dir / "run.xmf");
+  EXPECT_NE(xmf.find("step_000000"), std::string::npos);
+  EXPECT_EQ(xmf.find("hexcut_surface"), std::string::npos);
 }
