@@ -146,9 +146,10 @@ ResultOutput::ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& 
   const auto& D = model.layout;
   if (restart && (writer_.num_points() != D.num_global_copies ||
                   writer_.num_cells() != model.lattice.num_cells()))
-    throw InputError(path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) +
-                     " points, " + std::to_string(writer_.num_cells()) +
-                     " cells) does not match this deck's");
+    throw InputError(
+        path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) + " points, " +
+        std::to_string(writer_.num_cells()) +
+        " cells) does not match this deck's (restarting after a cut is not supported yet)");
 }
 
 ResultOutput::~ResultOutput() {

@@ -134,15 +134,17 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
       PetscLogEventEnd(ev.rebuild, 0, 0, 0, 0);
     }
     if (r.events == 0) return;
+    // (std::snprintf: PetscPrintf's %g prints 0 as "0.")
+    char when[64];
+    std::snprintf(when, sizeof when, "hexcut: t = %g s: ", t);
     if (r.links == 0) {
-      PetscPrintf(comm, "hexcut: t = %g s: %d cut event(s) crossed no link\n", t, r.events);
+      PetscPrintf(comm, "%s%d cut event(s) crossed no link\n", when, r.events);
       return;
     }
     const auto pieces = an::find_pieces(comm, model);
-    PetscPrintf(comm,
-                "hexcut: t = %g s: %d cut event(s) disconnected %lld links; %d piece(s), %d vertex "
-                "copies\n",
-                t, r.events, (long long)r.links, int(pieces.size()), int(model.copies.num_copies));
+    PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies\n",
+                when, r.events, (long long)r.links, int(pieces.size()),
+                int(model.copies.num_copies));
     for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", an::describe(p).c_str());
   };
   if (!restart) apply_cuts(dynamic ? 0.0 : std::numeric_limits<double>::infinity());
