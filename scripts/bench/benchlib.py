@@ -40,3 +40,43 @@ def residual_history(deck_text, work, name, extra=()):
     rows = [list(map(float, line.split())) for line in open(hist) if not line.startswith("#")]
     r0 = rows[0][3] if rows[0][3] > 0 else 1.0
     return [r[2] for r in rows], [r[3] / r0 for r in rows]
+
+
+# The theses' multigrid stress test (issue 4): an n^3 cube clamped at its base, cut from
+# the top halfway down by 3 + 3 vertical blades into 16 rods, spun about the vertical
+# axis. The blades lie on cell faces 3 cells off the coarse cells' boundaries.
+CUBE_RODS = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
+materials: {{rubber: {{E: 1.0e6, nu: 0.3, rho: 1000}}}}
+geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1, 1, 1]}}}}}}]
+boundary:
+  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [0, 0, 1]}}}}}}]
+  centrifugal: {{point: [0.5, 0.5, 0], axis: [0, 0, 1], omega: 10}}
+cuts:
+{blades}
+"""
+
+
+def cube_rods(n, time=None):
+    """Deck text (lattice to cuts) of the cube cut into rods; the cuts act at `time`."""
+    blades = []
+    for axis in (0, 1):
+        for k in (1, 2, 3):
+            c = (round(0.25 * k * n) + 3) / n
+            if axis == 0:
+                pts = [[c, -0.1, 0.5], [c, 1.1, 0.5], [c, 1.1, 1.1], [c, -0.1, 1.1]]
+            else:
+                pts = [[-0.1, c, 0.5], [1.1, c, 0.5], [1.1, c, 1.1], [-0.1, c, 1.1]]
+            blades.append(f"  - blade: {{polygon: {pts}}}" + (f"\n    time: {time}" if time is not None else ""))
+    return CUBE_RODS.format(h=1.0 / n, n=n, blades="\n".join(blades))
+
+
+def finish_residual_plot(fig, ax, title, out):
+    """Labels, grid and legend of a residual-against-time plot; saves it to `out`."""
+    ax.set_xlabel("wall time from the start of set-up [s]")
+    ax.set_ylabel("relative residual")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    print(f"wrote {out}")

@@ -9,21 +9,11 @@ import re
 import subprocess
 import tempfile
 
-from benchlib import ENV, HEXCUT, ROOT
+from benchlib import ENV, HEXCUT, ROOT, cube_rods
 
 COMMON = """analysis: {{type: dynamic, formulation: corotational, dt: {dt}, steps: {steps}, rayleigh: [2.0, 0.0]}}
 solver: {{type: gmg-cycles, cycles: 2}}
 output: {{directory: {out}, name: {name}, every: 1000, fields: [displacement]}}
-"""
-
-CUBE = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
-materials: {{rubber: {{E: 1.0e6, nu: 0.3, rho: 1000}}}}
-geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1, 1, 1]}}}}}}]
-boundary:
-  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [0, 0, 1]}}}}}}]
-  centrifugal: {{point: [0.5, 0.5, 0], axis: [0, 0, 1], omega: 10}}
-cuts:
-{blades}
 """
 
 BUNNY = """lattice: {{bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: {h}}}
@@ -36,20 +26,6 @@ cuts:
   - blade: {{cylinder: {{start: [0.015, 0.03, -0.06], end: [0.015, 0.03, 0.06], radius: 0.01, segments: 32}}}}
     time: {t_cut}
 """
-
-
-def grid_blades(n, t_cut):
-    # 3 + 3 vertical blades halfway down, off the coarse cells' boundaries (3 cells).
-    out = []
-    for axis in (0, 1):
-        for k in (1, 2, 3):
-            c = 0.25 * k + 3.0 / 32.0
-            if axis == 0:
-                pts = [[c, -0.1, 0.5], [c, 1.1, 0.5], [c, 1.1, 1.1], [c, -0.1, 1.1]]
-            else:
-                pts = [[-0.1, c, 0.5], [1.1, c, 0.5], [1.1, c, 1.1], [-0.1, c, 1.1]]
-            out.append(f"  - blade: {{polygon: {pts}}}\n    time: {t_cut}")
-    return "\n".join(out)
 
 
 def event(log, name):
@@ -82,7 +58,7 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         common = lambda name: COMMON.format(dt=dt, steps=a.steps, out=work, name=name)
         cases = {
-            "cube": CUBE.format(h=1.0 / a.cube, n=a.cube, blades=grid_blades(a.cube, t_cut)) + common("cube"),
+            "cube": cube_rods(a.cube, t_cut) + common("cube"),
             "bunny": BUNNY.format(h=a.bunny_h, mesh=os.path.join(ROOT, "input/meshes/bunny.obj"), t_cut=t_cut)
             + common("bunny"),
         }

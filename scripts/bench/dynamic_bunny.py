@@ -8,7 +8,6 @@ import os
 import re
 import subprocess
 import tempfile
-import time
 
 from benchlib import ENV, HEXCUT, ROOT
 
@@ -39,7 +38,6 @@ def main():
               f"{'assembly s/step':>16} {'solve s/step':>13}")
         for r, opts in [(r, o) for r in a.ranks for o in a.options]:
             cmd = (["mpiexec", "-n", str(r)] if r > 1 else []) + [HEXCUT, deck, "-log_view"] + opts.split()
-            t0 = time.time()
             p = subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=True)
             cells = int(re.search(r"(\d+) cells", p.stdout).group(1))
             dofs = int(re.search(r"(\d+) DOFs", p.stdout).group(1))

@@ -10,7 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from benchlib import ROOT, cantilever, residual_history  # noqa: E402
+from benchlib import ROOT, cantilever, finish_residual_plot, residual_history  # noqa: E402
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=24)
@@ -26,14 +26,7 @@ def main():
             else:
                 ax.semilogy(t, r, label=solver)
             print(f"{solver:>10}: {len(t) - 1:>5} iterations, {t[-1]:8.2f} s to {r[-1]:.1e}")
-    ax.set_xlabel("wall time from the start of set-up [s]")
-    ax.set_ylabel("relative residual")
-    ax.set_title(f"Cantilever, {3 * (8 * a.n + 1) * (a.n + 1) ** 2} DOFs, 1 rank")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=120)
-    print(f"wrote {a.out}")
+    finish_residual_plot(fig, ax, f"Cantilever, {3 * (8 * a.n + 1) * (a.n + 1) ** 2} DOFs, 1 rank", a.out)
 
 
 if __name__ == "__main__":

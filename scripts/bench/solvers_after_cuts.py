@@ -13,32 +13,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from benchlib import ROOT, residual_history  # noqa: E402
+from benchlib import ROOT, cube_rods, finish_residual_plot, residual_history  # noqa: E402
 
-DECK = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
-materials: {{rubber: {{E: 1.0e6, nu: 0.3, rho: 1000}}}}
-geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1, 1, 1]}}}}}}]
-boundary:
-  fixed: [{{where: {{plane: {{point: [0, 0, 0], normal: [0, 0, 1]}}}}}}]
-  centrifugal: {{point: [0.5, 0.5, 0], axis: [0, 0, 1], omega: 10}}
-cuts:
-{blades}
-solver: {{type: {solver}, rtol: 1.0e-9, max_iterations: 100000}}
+SOLVER = """solver: {{type: {solver}, rtol: 1.0e-9, max_iterations: 100000}}
 output: {{directory: {out}, name: r, fields: [displacement]}}
 """
-
-
-def blades(n):
-    out = []
-    for axis in (0, 1):
-        for k in (1, 2, 3):
-            c = (round(0.25 * k * n) + 3) / n  # on a cell face, off the coarse cells' boundaries
-            if axis == 0:
-                pts = [[c, -0.1, 0.5], [c, 1.1, 0.5], [c, 1.1, 1.1], [c, -0.1, 1.1]]
-            else:
-                pts = [[-0.1, c, 0.5], [1.1, c, 0.5], [1.1, c, 1.1], [-0.1, c, 1.1]]
-            out.append(f"  - blade: {{polygon: {pts}}}")
-    return "\n".join(out)
 
 
 def time_to(t, r, level):
@@ -58,7 +37,7 @@ def main():
     rows = {}
     with tempfile.TemporaryDirectory() as work:
         for solver in a.solvers:
-            deck = DECK.format(h=1.0 / a.n, n=a.n, blades=blades(a.n), solver=solver, out=work)
+            deck = cube_rods(a.n) + SOLVER.format(solver=solver, out=work)
             t, r = residual_history(deck, work, solver)
             ax.semilogy(t, r, label=solver)
             rows[solver] = (len(t) - 1, time_to(t, r, 1e-6), time_to(t, r, 1e-8))
@@ -68,14 +47,7 @@ def main():
     for solver, (its, t6, t8) in rows.items():
         ratio = ref[2] / t8 if ref else float("nan")
         print(f"{solver:>10} {its:>6} {t6:>10.2f} {t8:>10.2f} {8 / t8:>10.2f} {ratio:>24.1f}")
-    ax.set_xlabel("wall time from the start of set-up [s]")
-    ax.set_ylabel("relative residual")
-    ax.set_title(f"Cube {a.n}$^3$ cut into 16 rods, spun (static), 1 rank")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=120)
-    print(f"wrote {a.out}")
+    finish_residual_plot(fig, ax, f"Cube {a.n}$^3$ cut into 16 rods, spun (static), 1 rank", a.out)
 
 
 if __name__ == "__main__":

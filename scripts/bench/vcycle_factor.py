@@ -7,7 +7,7 @@ import os
 import subprocess
 import tempfile
 
-from benchlib import ENV, HEXCUT, ROOT
+from benchlib import ENV, HEXCUT
 
 DECK = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
 materials: {{m: {{E: 1.0, nu: 0.3, rho: 1}}}}

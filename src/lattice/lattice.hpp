@@ -1,6 +1,6 @@
 // Material cells and the face links between them (design.md §3). Only material cells
 // are stored; they are numbered in lattice order (x fastest), so face neighbours are
-// near in memory. Links are the only thing a cut changes (issue 4).
+// near in memory. Links are the only thing a cut changes (src/cut).
 #pragma once
 
 #include <array>

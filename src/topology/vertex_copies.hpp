@@ -3,7 +3,7 @@
 // among those 8 cells; each component gets its own copy (3 DOFs). Uncut solid gives one
 // copy per vertex; cells meeting only at an edge or a corner, or separated by a cut,
 // get separate copies. This module is the one place topology is derived from links:
-// the cut stage (issue 4) changes links and calls it again.
+// the cut stage (src/cut) changes links and calls it again.
 #pragma once
 
 #include <array>

@@ -31,7 +31,8 @@ struct Job {
   Job(MPI_Comm comm, const std::string& yaml, int superblock = 8, const char* options = nullptr) {
     deck = deck::parse_deck(yaml, "test.yaml");
     check_petsc(PetscOptionsClear(nullptr), "PetscOptionsClear");
-    if (options) check_petsc(PetscOptionsInsertString(nullptr, options), "PetscOptionsInsertString");
+    if (options)
+      check_petsc(PetscOptionsInsertString(nullptr, options), "PetscOptionsInsertString");
     check_petsc(solve::set_default_options(deck.solver), "set_default_options");
     check_petsc(analysis::build_model(comm, deck, superblock, &model), "build_model");
     sim = std::make_unique<analysis::Simulation>(comm, model, deck);
@@ -53,8 +54,10 @@ struct Job {
                     std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
                     D.first_owned_block(), 3, &ns),
                 "natural scatter");
-    check_petsc(VecScatterBegin(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    check_petsc(VecScatterEnd(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    check_petsc(VecScatterBegin(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
+                "scatter");
+    check_petsc(VecScatterEnd(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
+                "scatter");
     VecScatter all;
     Vec seq;
     check_petsc(VecScatterCreateToAll(ns.natural, &all, &seq), "to all");
@@ -80,19 +83,38 @@ struct Job {
   }
 };
 
+/// Sum over all DOFs of a global vector, per component (x, y, z): a resultant force or
+/// a total momentum.
+inline Eigen::Vector3d component_sums(Vec v) {
+  PetscInt n;
+  VecGetLocalSize(v, &n);
+  const PetscScalar* a;
+  VecGetArrayRead(v, &a);
+  double sum[3] = {0, 0, 0};
+  for (PetscInt i = 0; i < n; ++i) sum[i % 3] += a[i];
+  VecRestoreArrayRead(v, &a);
+  MPI_Allreduce(MPI_IN_PLACE, sum, 3, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)v));
+  return {sum[0], sum[1], sum[2]};
+}
+
 /// A bar [0,L]x[0,b]x[0,t] clamped at x = 0 with a downward end traction of resultant P.
 inline std::string cantilever_deck(double h, const std::string& analysis, const std::string& solver,
-                                   double L = 1.0, double b = 0.1, double t = 0.1, double P = 1000.0) {
-  const int nx = int(std::lround(L / h)), ny = int(std::lround(b / h)), nz = int(std::lround(t / h));
-  return "lattice: {h: " + std::to_string(h) + ", dims: [" + std::to_string(nx) + ", " + std::to_string(ny) +
-         ", " + std::to_string(nz) + "]}\n" +
+                                   double L = 1.0, double b = 0.1, double t = 0.1,
+                                   double P = 1000.0) {
+  const int nx = int(std::lround(L / h)), ny = int(std::lround(b / h)),
+            nz = int(std::lround(t / h));
+  return "lattice: {h: " + std::to_string(h) + ", dims: [" + std::to_string(nx) + ", " +
+         std::to_string(ny) + ", " + std::to_string(nz) + "]}\n" +
          "materials: {steel: {E: 200.0e9, nu: 0.3, rho: 7800}}\n"
-         "geometry:\n  - add: {box: {min: [0, 0, 0], max: [" + std::to_string(L) + ", " + std::to_string(b) +
-         ", " + std::to_string(t) + "]}}\n" +
+         "geometry:\n  - add: {box: {min: [0, 0, 0], max: [" +
+         std::to_string(L) + ", " + std::to_string(b) + ", " + std::to_string(t) + "]}}\n" +
          "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
-         "  traction:\n    - where: {plane: {point: [" + std::to_string(L) + ", 0, 0], normal: [1, 0, 0]}}\n"
-         "      value: [0, 0, " + std::to_string(-P / (b * t)) + "]\n" +
-         "analysis: " + analysis + "\n" + "solver: " + solver + "\n";
+         "  traction:\n    - where: {plane: {point: [" +
+         std::to_string(L) +
+         ", 0, 0], normal: [1, 0, 0]}}\n"
+         "      value: [0, 0, " +
+         std::to_string(-P / (b * t)) + "]\n" + "analysis: " + analysis + "\n" +
+         "solver: " + solver + "\n";
 }
 
 }  // namespace hexcut::testing

@@ -2,7 +2,6 @@
 last checkpoint continues, with --restart, to the same result as an uninterrupted run
 (to round-off on the same number of ranks; to solver tolerance on 2 ranks). Also the
 batch-chunking option -hexcut_max_steps."""
-import os
 import shutil
 import signal
 import subprocess

@@ -129,16 +129,9 @@ Eigen::Vector3d momentum(Job& job, bool lumped) {
   check_petsc(assembly::apply(job.model.dm, job.model.layout, job.model.cells, {0.0, 1.0, lumped},
                               job.state.v, Mv),
               "apply");
-  const PetscScalar* a;
-  PetscInt n;
-  VecGetLocalSize(Mv, &n);
-  VecGetArrayRead(Mv, &a);
-  double p[3] = {0, 0, 0};
-  for (PetscInt i = 0; i < n; ++i) p[i % 3] += a[i];
-  VecRestoreArrayRead(Mv, &a);
+  const Eigen::Vector3d p = component_sums(Mv);
   VecDestroy(&Mv);
-  MPI_Allreduce(MPI_IN_PLACE, p, 3, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
-  return {p[0], p[1], p[2]};
+  return p;
 }
 
 TEST(Cuts, VertexCopiesSplitWithTheStateAndMomentumIsConserved) {
