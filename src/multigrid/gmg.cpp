@@ -146,6 +146,16 @@ Options read_options() {
     if (n < 1) throw InputError("-gmg_eig_every must be >= 1");
     o.eig_every = int(n);
   }
+  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_cycle", buf, sizeof buf, &set),
+              "options");
+  if (set) {
+    if (!std::strcmp(buf, "v"))
+      o.cycle_gamma = 1;
+    else if (!std::strcmp(buf, "w"))
+      o.cycle_gamma = 2;
+    else
+      throw InputError(std::string("-gmg_cycle must be v or w, got ") + buf);
+  }
   PetscBool view = PETSC_FALSE;
   check_petsc(PetscOptionsGetBool(nullptr, nullptr, "-gmg_view", &view, nullptr), "options");
   o.view = view;
@@ -764,7 +774,7 @@ void Multigrid::build_coarsest() {
   check_petsc(KSPSetUp(coarse_ksp_), "KSPSetUp");
 }
 
-PetscErrorCode Multigrid::vcycle_level(int l) {
+PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   if (l == num_levels() - 1) {
@@ -772,13 +782,17 @@ PetscErrorCode Multigrid::vcycle_level(int l) {
     PetscFunctionReturn(0);
   }
   auto& c = *data_[l + 1];
-  PetscCall(VecSet(d.x, 0.0));
+  if (zero_guess) PetscCall(VecSet(d.x, 0.0));
   PetscCall(smooth(l, d.b, d.x, opt_.presmooth, false));
   PetscCall(apply_level_impl(l, d.x, d.r));
   PetscCall(VecAYPX(d.r, -1.0, d.b));
   PetscCall(VecPointwiseMult(d.r, d.r, d.mask));
   PetscCall(MatMultTranspose(d.P, d.r, c.b));
-  PetscCall(vcycle_level(l + 1));
+  // V-cycle: one cycle on the next level; W-cycle: two, the second continuing from the
+  // first, so the coarse problems are solved more accurately where the coarse space is
+  // poor (thin pieces after cuts). The coarsest level is solved exactly, once.
+  const int visits = l + 2 == num_levels() ? 1 : opt_.cycle_gamma;
+  for (int v = 0; v < visits; ++v) PetscCall(cycle_level(l + 1, v == 0));
   PetscCall(MatMult(d.P, c.x, d.tmp));
   PetscCall(VecPointwiseMult(d.tmp, d.tmp, d.mask));
   PetscCall(VecAXPY(d.x, 1.0, d.tmp));
@@ -790,7 +804,7 @@ PetscErrorCode Multigrid::vcycle(Vec b, Vec x) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
   PetscCall(VecCopy(b, data_[0]->b));
-  PetscCall(vcycle_level(0));
+  PetscCall(cycle_level(0, true));
   PetscCall(VecCopy(data_[0]->x, x));
   PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
   PetscFunctionReturn(0);

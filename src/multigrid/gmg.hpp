@@ -18,6 +18,7 @@
 //   -gmg_smoother gs|chebyshev        (default chebyshev)
 //   -gmg_presmooth N, -gmg_postsmooth N   sweeps (Chebyshev: degree) (default 2, 2)
 //   -gmg_omega W             Gauss-Seidel relaxation weight (default 1)
+//   -gmg_cycle v|w           cycle type (default v)
 //   -gmg_rebuild_tol T       rotation-only updates rebuild the Galerkin blocks of the
 //                            coarse cells with a descendant whose rotation moved by more
 //                            than T (max entry) since its block was built (default 0:
@@ -49,6 +50,7 @@ struct Options {
   int presmooth = 2;
   int postsmooth = 2;
   double omega = 1.0;
+  int cycle_gamma = 1;  // cycles on the next level per visit: 1 = V-cycle, 2 = W-cycle
   // Partial rebuild (rotation-only updates): a Galerkin block is rebuilt when a
   // descendant's rotation moved by more than this since the block was built.
   double rebuild_tolerance = 0.0;
@@ -117,7 +119,7 @@ class Multigrid {
   PetscErrorCode smooth(int l, Vec b, Vec x, int sweeps, bool reverse);
   PetscErrorCode gauss_seidel(int l, Vec b, Vec x, bool reverse);
   PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
-  PetscErrorCode vcycle_level(int l);
+  PetscErrorCode cycle_level(int l, bool zero_guess);
   void build_diagonal(int l);
   void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
   void refresh_local_mask(LevelData& d);
