@@ -137,6 +137,16 @@ CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, 
   return r;
 }
 
+PetscErrorCode restore_cuts(MPI_Comm comm, const deck::Deck& deck,
+                            const std::vector<lattice::CutLink>& links, Model* M) {
+  PetscFunctionBeginUser;
+  cut::cut_links(M->lattice, links);
+  PetscCall(DMDestroy(&M->dm));
+  PetscCall(VecDestroy(&M->coordinates));
+  PetscCall(rebuild_topology(comm, deck, M));
+  PetscFunctionReturn(0);
+}
+
 std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
   const auto& L = M.lattice;
   // Union-find over the links.

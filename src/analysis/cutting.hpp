@@ -58,6 +58,12 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* m
 CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
                          Model* model, State* state);
 
+/// Restart: applies cut links read from a checkpoint (in their cutting order) to the
+/// uncut model and rebuilds its topology; the model's DM is replaced, so create the state
+/// afterwards. Collective.
+PetscErrorCode restore_cuts(MPI_Comm comm, const deck::Deck& deck,
+                            const std::vector<lattice::CutLink>& links, Model* model);
+
 /// A connected component of the body (cells joined by links).
 struct Piece {
   int id = 0;  // 1-based, in order of the lowest cell

@@ -1,6 +1,7 @@
 #include "analysis/result_output.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <type_traits>
 
 #include "analysis/events.hpp"
@@ -23,6 +24,30 @@ output::Slab even_slab(MPI_Comm comm, std::int64_t n) {
   s.local_rows = n / size + (rank < n % size ? 1 : 0);
   s.row_offset = rank * (n / size) + std::min<std::int64_t>(rank, n % size);
   return s;
+}
+
+/// A cut link as a row of the checkpoint's int32 topology table: cell, direction, cut id,
+/// then t and the normal in fixed point (2^-30 resolution: far below what a surface shows;
+/// the mechanics does not use them), portable across byte orders.
+constexpr int kCutLinkColumns = 7;
+constexpr double kFixedPoint = 1073741824.0;  // 2^30
+
+void encode_cut_link(const lattice::CutLink& l, std::int32_t* row) {
+  row[0] = l.cell;
+  row[1] = l.dir;
+  row[2] = l.cut_id;
+  row[3] = std::int32_t(std::lround(l.t * kFixedPoint));
+  for (int d = 0; d < 3; ++d) row[4 + d] = std::int32_t(std::lround(l.normal[d] * kFixedPoint));
+}
+
+lattice::CutLink decode_cut_link(const std::int32_t* row) {
+  lattice::CutLink l;
+  l.cell = row[0];
+  l.dir = row[1];
+  l.cut_id = row[2];
+  l.t = row[3] / kFixedPoint;
+  for (int d = 0; d < 3; ++d) l.normal[d] = row[4 + d] / kFixedPoint;
+  return l;
 }
 
 /// The mesh tables of this rank's canonical slabs: they are computed directly from the
@@ -143,13 +168,6 @@ ResultOutput::ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& 
       writer_(restart ? output::ResultWriter::open(path, comm)
                       : create_writer(comm, model, deck, path, command_line)) {
   create_scatters();
-  const auto& D = model.layout;
-  if (restart && (writer_.num_points() != D.num_global_copies ||
-                  writer_.num_cells() != model.lattice.num_cells()))
-    throw InputError(
-        path + ": the restart file's mesh (" + std::to_string(writer_.num_points()) + " points, " +
-        std::to_string(writer_.num_cells()) +
-        " cells) does not match this deck's (restarting after a cut is not supported yet)");
 }
 
 ResultOutput::~ResultOutput() {
@@ -378,10 +396,42 @@ void ResultOutput::write_checkpoint(const State& s) {
   // The current topology's point count: after a cut the writer's mesh is the old one
   // until the next output step.
   const output::Slab points{model_.layout.num_global_copies, points_.row_begin, points_.rows};
-  writer_.write_checkpoint(s.step, s.time, points, u.data(), v.data(), a.data());
+  // The cut links, so that a restart can rebuild the topology (topology/links).
+  const auto& cuts = model_.lattice.cut_links;
+  const auto links = even_slab(comm_, std::int64_t(cuts.size()));
+  std::vector<std::int32_t> table(kCutLinkColumns * links.local_rows);
+  for (std::int64_t i = 0; i < links.local_rows; ++i)
+    encode_cut_link(cuts[links.row_offset + i], &table[kCutLinkColumns * i]);
+  writer_.write_checkpoint(s.step, s.time, points, u.data(), v.data(), a.data(), links,
+                           kCutLinkColumns, table.data());
+}
+
+std::vector<lattice::CutLink> ResultOutput::checkpoint_cut_links() {
+  const auto info = writer_.checkpoint_info();
+  if (!info || info->link_rows == 0) return {};
+  if (info->link_cols != kCutLinkColumns)
+    throw InputError(path() + ": the checkpoint's topology/links table has " +
+                     std::to_string(info->link_cols) + " columns, not the " +
+                     std::to_string(kCutLinkColumns) + " of cut links");
+  // Every rank needs every cut link (the lattice is replicated): all read all rows.
+  std::vector<std::int32_t> table(kCutLinkColumns * info->link_rows);
+  writer_.read_checkpoint(0, 0, nullptr, nullptr, nullptr, 0, info->link_rows, table.data());
+  std::vector<lattice::CutLink> links(info->link_rows);
+  for (std::int64_t i = 0; i < info->link_rows; ++i)
+    links[i] = decode_cut_link(&table[kCutLinkColumns * i]);
+  return links;
 }
 
 void ResultOutput::read_checkpoint(State* s) {
+  const auto header = writer_.checkpoint_info();
+  if (!header) throw InputError(path() + ": the file has no checkpoint to restart from");
+  if (header->num_points != model_.layout.num_global_copies ||
+      writer_.num_cells() != model_.lattice.num_cells())
+    throw InputError(path() + ": the checkpoint (" + std::to_string(header->num_points) +
+                     " points, " + std::to_string(writer_.num_cells()) +
+                     " cells) does not match this deck's model (" +
+                     std::to_string(model_.layout.num_global_copies) + " points, " +
+                     std::to_string(model_.lattice.num_cells()) + " cells)");
   std::vector<double> u(3 * points_.rows), v(3 * points_.rows), a(3 * points_.rows);
   const auto info =
       writer_.read_checkpoint(points_.row_begin, points_.rows, u.data(), v.data(), a.data());

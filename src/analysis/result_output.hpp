@@ -52,7 +52,11 @@ class ResultOutput {
   void write_step(const State& s, bool corotational);
   void record_solve(std::int64_t step, double time, const solve::SolveRecord& r);
   void write_checkpoint(const State& s);
+  /// The cut links stored with the current checkpoint (empty: none, or no checkpoint), in
+  /// cutting order: restore them (restore_cuts) before read_checkpoint.
+  std::vector<lattice::CutLink> checkpoint_cut_links();
   /// Reads the checkpoint into s (u, v, a, time, step); drops later steps from the file.
+  /// Throws InputError when the checkpoint's point count is not the model's.
   void read_checkpoint(State* s);
 
  private:

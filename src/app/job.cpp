@@ -152,13 +152,21 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
 
   const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;
   if (restart) {
+    // A run that was cut: rebuild the cut topology from the checkpoint's links first.
+    const auto links = out.checkpoint_cut_links();
+    if (!links.empty()) {
+      check_petsc(an::destroy_state(&state), "destroy_state");
+      sim.reset();
+      check_petsc(an::restore_cuts(comm, deck, links, &model), "restore_cuts");
+      check_petsc(an::create_state(model.dm, &state), "create_state");
+      sim = std::make_unique<an::Simulation>(comm, model, deck);
+      out.topology_changed();
+    }
     out.read_checkpoint(&state);
-    PetscPrintf(comm, "hexcut: restarting from %s at step %lld, t = %g s\n", path.c_str(),
-                (long long)state.step, state.time);
-    if (cutter.pending() && cutter.next_time() <= state.time)
-      throw InputError(
-          path + ": --restart after a cut is not supported yet (the checkpoint at t = " +
-          std::to_string(state.time) + " s follows the deck's first cut); rerun from the start");
+    cutter.skip_due(state.time);
+    PetscPrintf(comm,
+                "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
+                path.c_str(), (long long)state.step, state.time, (long long)links.size());
   } else if (dynamic) {
     sim->initial_acceleration(state);
     PetscLogEventBegin(ev.output, 0, 0, 0, 0);
