@@ -10,6 +10,7 @@
 #include "analysis/cutting.hpp"
 #include "assembly/operator.hpp"
 #include "common/errors.hpp"
+#include "cut/blade.hpp"
 #include "cut/link_cut.hpp"
 
 namespace hexcut::testing {
@@ -103,6 +104,93 @@ TEST(Cuts, CrossingAndOverlappingCutsGiveExactPieceCounts) {
     // Every cut link is recorded once, whatever the overlaps.
     EXPECT_EQ(std::int64_t(job.model.lattice.cut_links.size()), r.links);
   }
+}
+
+TEST(Cuts, ScalpelWindowSchedulesOneQuadPerPathSegment) {
+  deck::Cut c;
+  c.blade.kind = deck::Blade::Kind::scalpel;
+  c.blade.edge = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 0, 1)};
+  for (int k = 0; k < 5; ++k) c.blade.path.push_back(Eigen::Vector3d(0.1 * k, 0.05 * k * k, 0));
+  c.swept = true;
+  c.window_begin = 0.1;
+  c.window_end = 0.5;
+  const auto events = cut::cut_schedule({c});
+  ASSERT_EQ(events.size(), 4u);
+  double area = 0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_NEAR(events[k].time, 0.1 + 0.1 * double(k + 1), 1e-15);
+    ASSERT_EQ(events[k].triangles.size(), 2u);
+    for (const auto& t : events[k].triangles) area += t.area();
+  }
+  // The swept surface: edge length 1 times the path length (the path is planar in z = 0).
+  double path = 0;
+  for (int k = 0; k + 1 < 5; ++k) path += (c.blade.path[k + 1] - c.blade.path[k]).norm();
+  EXPECT_NEAR(area, path, 1e-12);
+}
+
+TEST(Cuts, CylinderStampPunchesOutAPlug) {
+  const std::string yaml =
+      "lattice: {h: 0.03125, dims: [32, 32, 8]}\n"
+      "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 0.25]}}}]\n"
+      "analysis: {type: dynamic, dt: 0.001, steps: 1}\n"
+      "solver: {type: cg-jacobi}\n"
+      "cuts:\n  - blade: {cylinder: {start: [0.5, 0.5, -0.1], end: [0.5, 0.5, 0.4], radius: 0.25, "
+      "segments: 64}}\n";
+  Job job(PETSC_COMM_WORLD, yaml);
+  Cutter cutter(job.deck, job.model.lattice);
+  analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 0.0, &job.model, &job.state);
+  const auto pieces = analysis::find_pieces(PETSC_COMM_WORLD, job.model);
+  ASSERT_EQ(pieces.size(), 2u);
+  // The plug: exactly the cells whose centres lie inside the cylinder (none is within
+  // the 64-gon's chord distance of the circle here), about pi r^2 t / h^3.
+  const auto& plug = pieces[0].cells < pieces[1].cells ? pieces[0] : pieces[1];
+  const auto& L = job.model.lattice;
+  std::int64_t inside = 0;
+  for (std::int32_t c = 0; c < L.num_cells(); ++c) {
+    const auto x = L.spec.cell_centre(L.ijk[c][0], L.ijk[c][1], L.ijk[c][2]);
+    inside += std::hypot(x.x() - 0.5, x.y() - 0.5) < 0.25;
+  }
+  std::printf("plug: %lld cells; centres inside the cylinder %lld; pi r^2 t / h^3 = %.1f\n",
+              (long long)plug.cells, (long long)inside,
+              M_PI * 0.25 * 0.25 * 0.25 / std::pow(0.03125, 3));
+  EXPECT_EQ(plug.cells, inside);
+}
+
+TEST(Cuts, MeshBladeCutsTheSameLinksAsTheEquivalentPolygon) {
+  // The same inclined quad, once as a polygon and once as a two-triangle OBJ file.
+  const std::string obj =
+      std::string(HEXCUT_BINARY_DIR) + "/blade_quad_" + std::to_string(num_ranks()) + ".obj";
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank == 0) {
+    std::FILE* f = std::fopen(obj.c_str(), "w");
+    std::fprintf(
+        f, "v 0.3 -0.1 -0.1\nv 0.7 -0.1 0.6\nv 0.7 0.6 0.6\nv 0.3 0.6 -0.1\nf 1 2 3\nf 1 3 4\n");
+    std::fclose(f);
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+  const std::string base =
+      "lattice: {h: 0.05, dims: [20, 10, 10]}\n"
+      "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 0.5, 0.5]}}}]\n"
+      "analysis: {type: dynamic, dt: 0.001, steps: 1}\n"
+      "solver: {type: cg-jacobi}\n";
+  std::vector<std::vector<std::int32_t>> cut_cells;
+  for (const std::string blade :
+       {std::string(
+            "{polygon: [[0.3, -0.1, -0.1], [0.7, -0.1, 0.6], [0.7, 0.6, 0.6], [0.3, 0.6, -0.1]]}"),
+        "{mesh: {file: " + obj + "}}"}) {
+    Job job(PETSC_COMM_WORLD, base + "cuts:\n  - blade: " + blade + "\n");
+    Cutter cutter(job.deck, job.model.lattice);
+    analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 0.0, &job.model, &job.state);
+    std::vector<std::int32_t> cells;
+    for (const auto& l : job.model.lattice.cut_links) cells.push_back(3 * l.cell + l.dir);
+    cut_cells.push_back(cells);
+    EXPECT_EQ(analysis::find_pieces(PETSC_COMM_WORLD, job.model).size(), 2u) << blade;
+  }
+  EXPECT_GT(cut_cells[0].size(), 100u);
+  EXPECT_EQ(cut_cells[0], cut_cells[1]);
 }
 
 /// A smooth field of position for the state.
