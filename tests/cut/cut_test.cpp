@@ -177,7 +177,7 @@ TEST(Cuts, MeshBladeCutsTheSameLinksAsTheEquivalentPolygon) {
       "analysis: {type: dynamic, dt: 0.001, steps: 1}\n"
       "solver: {type: cg-jacobi}\n";
   std::vector<std::vector<std::int32_t>> cut_cells;
-  for (const std::string blade :
+  for (const std::string& blade :
        {std::string(
             "{polygon: [[0.3, -0.1, -0.1], [0.7, -0.1, 0.6], [0.7, 0.6, 0.6], [0.3, 0.6, -0.1]]}"),
         "{mesh: {file: " + obj + "}}"}) {
