@@ -148,6 +148,7 @@ Options read_options() {
   }
   check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_cycle", buf, sizeof buf, &set),
               "options");
+  o.cycle_set = set;
   if (set) {
     if (!std::strcmp(buf, "v"))
       o.cycle_gamma = 1;

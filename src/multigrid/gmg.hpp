@@ -18,7 +18,8 @@
 //   -gmg_smoother gs|chebyshev        (default chebyshev)
 //   -gmg_presmooth N, -gmg_postsmooth N   sweeps (Chebyshev: degree) (default 2, 2)
 //   -gmg_omega W             Gauss-Seidel relaxation weight (default 1)
-//   -gmg_cycle v|w           cycle type (default v)
+//   -gmg_cycle v|w           cycle type (default v; the simulation picks w for static
+//                            analyses of cut bodies, see analysis/simulation.cpp)
 //   -gmg_rebuild_tol T       rotation-only updates rebuild the Galerkin blocks of the
 //                            coarse cells with a descendant whose rotation moved by more
 //                            than T (max entry) since its block was built (default 0:
@@ -50,7 +51,8 @@ struct Options {
   int presmooth = 2;
   int postsmooth = 2;
   double omega = 1.0;
-  int cycle_gamma = 1;  // cycles on the next level per visit: 1 = V-cycle, 2 = W-cycle
+  int cycle_gamma = 1;     // cycles on the next level per visit: 1 = V-cycle, 2 = W-cycle
+  bool cycle_set = false;  // -gmg_cycle was given (callers may pick a default otherwise)
   // Partial rebuild (rotation-only updates): a Galerkin block is rebuilt when a
   // descendant's rotation moved by more than this since the block was built.
   double rebuild_tolerance = 0.0;

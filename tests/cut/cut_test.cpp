@@ -436,28 +436,36 @@ TEST(Cuts, MultigridHierarchyFollowsTheCuts) {
   const PetscInt uncut_dyn = grid_cube_iterations(false, nullptr, 0.01);
   const PetscInt cut_dyn = grid_cube_iterations(true, nullptr, 0.01);
   const PetscInt naive_dyn = grid_cube_iterations(true, "-gmg_hierarchy naive", 0.01);
-  // Static, the same depth (3 levels) for both.
-  const PetscInt uncut = grid_cube_iterations(false, "-gmg_levels 3");
-  const PetscInt cut = grid_cube_iterations(true, "-gmg_levels 3");
-  const PetscInt naive = grid_cube_iterations(true, "-gmg_levels 3 -gmg_hierarchy naive");
-  // A 4th level (8^3-cell coarse cells, wider than the 5-cell rods) costs more; the
-  // W-cycle recovers most of it. Recorded, not bounded (doc/benchmarks.md).
-  const PetscInt uncut4 = grid_cube_iterations(false, "-gmg_levels 4");
-  const PetscInt cut4 = grid_cube_iterations(true, "-gmg_levels 4");
+  // Static, V-cycles with the same depth (3 levels) for both.
+  const PetscInt uncut = grid_cube_iterations(false, "-gmg_levels 3 -gmg_cycle v");
+  const PetscInt cut = grid_cube_iterations(true, "-gmg_levels 3 -gmg_cycle v");
+  const PetscInt naive =
+      grid_cube_iterations(true, "-gmg_levels 3 -gmg_cycle v -gmg_hierarchy naive");
+  // A 4th level (8^3-cell coarse cells, wider than the 5-cell rods) costs the V-cycle
+  // more; the W-cycle recovers it.
+  const PetscInt uncut4 = grid_cube_iterations(false, "-gmg_levels 4 -gmg_cycle v");
+  const PetscInt cut4 = grid_cube_iterations(true, "-gmg_levels 4 -gmg_cycle v");
   const PetscInt uncut4w = grid_cube_iterations(false, "-gmg_levels 4 -gmg_cycle w");
   const PetscInt cut4w = grid_cube_iterations(true, "-gmg_levels 4 -gmg_cycle w");
+  // Static with default settings: automatic depth (3 levels uncut; 4 cut, where the
+  // split copies push the 3rd level over -gmg_coarse_dofs) and, for a static analysis of
+  // a cut body, the W-cycle.
+  const PetscInt uncut_default = grid_cube_iterations(false, nullptr);
+  const PetscInt cut_default = grid_cube_iterations(true, nullptr);
   std::printf(
       "GMG-CG iterations to 1e-8, 32^3 cube cut into 16 rods (uncut / cut / naive):\n"
-      "  dynamic (dt 10 ms, automatic depth): %d / %d / %d\n"
-      "  static, 3 levels: %d / %d / %d\n"
-      "  static, 4 levels: V-cycle %d / %d, W-cycle %d / %d\n",
+      "  dynamic (dt 10 ms, defaults): %d / %d / %d\n"
+      "  static, 3 levels, V-cycle: %d / %d / %d\n"
+      "  static, 4 levels: V-cycle %d / %d, W-cycle %d / %d\n"
+      "  static, defaults: %d / %d\n",
       int(uncut_dyn), int(cut_dyn), int(naive_dyn), int(uncut), int(cut), int(naive), int(uncut4),
-      int(cut4), int(uncut4w), int(cut4w));
+      int(cut4), int(uncut4w), int(cut4w), int(uncut_default), int(cut_default));
   EXPECT_LE(double(cut_dyn), 1.5 * double(uncut_dyn));
   EXPECT_GE(double(naive_dyn), 2.0 * double(cut_dyn));
   EXPECT_LE(double(cut), 1.5 * double(uncut));
   EXPECT_GE(double(naive), 3.0 * double(cut));
   EXPECT_LT(cut4w, cut4);
+  EXPECT_LE(double(cut_default), 1.5 * double(uncut_default));
 }
 
 TEST(Cuts, UnsupportedPieceIsReportedForStaticAnalyses) {
