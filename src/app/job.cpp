@@ -40,6 +40,22 @@ std::string format_seconds(double s) {
   return buf;
 }
 
+/// One line per application of cut events, then the pieces when links were cut.
+void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysis::CutReport& r,
+                      double t) {
+  if (r.events == 0) return;
+  char when[64];  // (std::snprintf: PetscPrintf's %g prints 0 as "0.")
+  std::snprintf(when, sizeof when, "hexcut: t = %g s: ", t);
+  if (r.links == 0) {
+    PetscPrintf(comm, "%s%d cut event(s) crossed no link\n", when, r.events);
+    return;
+  }
+  const auto pieces = analysis::find_pieces(comm, model);
+  PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies\n",
+              when, r.events, (long long)r.links, int(pieces.size()), int(model.copies.num_copies));
+  for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", analysis::describe(p).c_str());
+}
+
 }  // namespace
 
 deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
@@ -133,19 +149,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
       out.topology_changed();
       PetscLogEventEnd(ev.rebuild, 0, 0, 0, 0);
     }
-    if (r.events == 0) return;
-    // (std::snprintf: PetscPrintf's %g prints 0 as "0.")
-    char when[64];
-    std::snprintf(when, sizeof when, "hexcut: t = %g s: ", t);
-    if (r.links == 0) {
-      PetscPrintf(comm, "%s%d cut event(s) crossed no link\n", when, r.events);
-      return;
-    }
-    const auto pieces = an::find_pieces(comm, model);
-    PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies\n",
-                when, r.events, (long long)r.links, int(pieces.size()),
-                int(model.copies.num_copies));
-    for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", an::describe(p).c_str());
+    print_cut_report(comm, model, r, t);
   };
   if (!restart) apply_cuts(dynamic ? 0.0 : std::numeric_limits<double>::infinity());
   if (!dynamic) an::require_supported(an::find_pieces(comm, model));
