@@ -824,13 +824,17 @@ PetscErrorCode Multigrid::attach(PC pc) {
 PetscErrorCode Multigrid::view(PetscViewer viewer) const {
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(
-      viewer, "hexcut gmg: %d levels, hierarchy %s, smoother %s V(%d,%d)%s\n", num_levels(),
+      viewer, "hexcut gmg: %d levels, hierarchy %s, %s-cycle, smoother %s (%d,%d)%s\n",
+      num_levels(),
       opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
+      opt_.cycle_gamma == 2 ? "W" : "V",
       opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
       opt_.presmooth, opt_.postsmooth,
       opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
+  // "duplicated": cells that share their position with another cell of the level, the
+  // pieces of one 2x2x2 block that holes, thin gaps or cuts separate.
   PetscCall(PetscViewerASCIIPrintf(
-      viewer, "  level      cells  shared-pos      DOFs   nnz-equiv     held MiB   rebuilt\n"));
+      viewer, "  level      cells  duplicated      DOFs   nnz-equiv     held MiB   rebuilt\n"));
   double total_bytes = 0.0, fine_nnz = 0.0, fine_dofs = 1.0;
   for (int l = 0; l < num_levels(); ++l) {
     const auto& lev = levels_[l];
