@@ -16,6 +16,7 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -54,9 +55,13 @@ std::array<double, 3> surface_offset(int step) {
   return {0.001 * step, 0.002 * step, 0.003 * step};
 }
 
-void write_fields(ResultWriter& writer, int s, const Slab& P, const Slab& C) {
+/// The fields and checkpoint of step s (time s/4). `after_first_field` runs between the
+/// first and the second field (the killed-writer case kills the process there).
+void write_fields(ResultWriter& writer, int s, const Slab& P, const Slab& C,
+                  const std::function<void()>& after_first_field = {}) {
   auto u = table(1, s, P, 3), v = table(2, s, P, 3), a = table(3, s, P, 3);
   writer.write_point_field(s, "displacement", 3, P.row_offset, P.local_rows, u.data(), "m");
+  if (after_first_field) after_first_field();
   writer.write_point_field(s, "velocity", 3, P.row_offset, P.local_rows, v.data(), "m/s");
   writer.write_point_field(s, "acceleration", 3, P.row_offset, P.local_rows, a.data(), "m/s^2");
   auto stress = table(4, s, C, 6), vm = table(5, s, C, 1), pr = table(6, s, C, 1),
@@ -69,7 +74,8 @@ void write_fields(ResultWriter& writer, int s, const Slab& P, const Slab& C) {
   std::vector<std::int32_t> links;
   for (std::int64_t r = C.row_offset; r < C.row_offset + C.local_rows; ++r)
     links.push_back(static_cast<std::int32_t>(100 * s + r));
-  // Uses the current mesh's point count (45 rows from step 2 on).
+  // Uses the current mesh's point count (45 rows from step 2 on in the cut file). The
+  // checkpoint of step s goes inside the open step, into the same open file.
   writer.write_checkpoint(s, 0.25 * s, P.row_offset, P.local_rows, u.data(), v.data(), a.data(), C,
                           0, links.data());
 }
@@ -224,27 +230,12 @@ int run(int argc, char** argv) {
     writer.append_solve(rec);
 
     writer.begin_step(s, time);
-    auto u = table(1, s, P, 3), v = table(2, s, P, 3), a = table(3, s, P, 3);
-    writer.write_point_field(s, "displacement", 3, P.row_offset, P.local_rows, u.data(), "m");
-    if (s == kill_during) {  // inside an open step, after its first field
-      MPI_Barrier(MPI_COMM_WORLD);
-      if (rank == 0) std::raise(SIGKILL);
-    }
-    writer.write_point_field(s, "velocity", 3, P.row_offset, P.local_rows, v.data(), "m/s");
-    writer.write_point_field(s, "acceleration", 3, P.row_offset, P.local_rows, a.data(), "m/s^2");
-    auto stress = table(4, s, C, 6), vm = table(5, s, C, 1), pr = table(6, s, C, 1),
-         ps = table(7, s, C, 3), pd = table(8, s, C, 9);
-    writer.write_cell_field(s, "stress", 6, C.row_offset, C.local_rows, stress.data(), "Pa");
-    writer.write_cell_field(s, "von_mises", 1, C.row_offset, C.local_rows, vm.data(), "Pa");
-    writer.write_cell_field(s, "pressure", 1, C.row_offset, C.local_rows, pr.data(), "Pa");
-    writer.write_cell_field(s, "principal_stress", 3, C.row_offset, C.local_rows, ps.data(), "Pa");
-    writer.write_cell_field(s, "principal_directions", 9, C.row_offset, C.local_rows, pd.data());
-    // The checkpoint of step s (inside the open step: written into the same open file).
-    std::vector<std::int32_t> links;
-    for (std::int64_t r = C.row_offset; r < C.row_offset + C.local_rows; ++r)
-      links.push_back(static_cast<std::int32_t>(100 * s + r));
-    writer.write_checkpoint(s, time, P.row_offset, P.local_rows, u.data(), v.data(), a.data(), C, 0,
-                            links.data());
+    write_fields(writer, s, P, C, [&] {
+      if (s == kill_during) {  // inside an open step, after its first field
+        MPI_Barrier(MPI_COMM_WORLD);
+        if (rank == 0) std::raise(SIGKILL);
+      }
+    });
     writer.end_step();
     if (s == kill_after) {
       MPI_Barrier(MPI_COMM_WORLD);
