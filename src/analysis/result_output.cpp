@@ -140,8 +140,7 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
   const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   for (std::size_t e = 0; e < n; ++e) {
     double u24[24], R[9], F[9];
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) u24[3 * q + d] = ua[3 * D.cell_corners[e][q] + d];
+    element::gather_cell(ua, D.cell_corners[e].data(), u24);
     if (corotational) {
       element::deformation_gradient_at_centre(u24, C.h, F);
       element::polar_rotation(F, R);

@@ -14,11 +14,13 @@ constexpr double kIdentity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
 const double* cell_stiffness(const CellData& cells, std::size_t e, double* buffer) {
   if (cells.kind[e] >= 0) return cells.kind_stiffness[cells.kind[e]].data();
-  element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e], cells.mu[e], buffer);
+  element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e], cells.mu[e],
+                          buffer);
   return buffer;
 }
 
-element::FineCell fine_cell_view(const CellData& C, std::size_t e, const OperatorWeights& w, double* buffer) {
+element::FineCell fine_cell_view(const CellData& C, std::size_t e, const OperatorWeights& w,
+                                 double* buffer) {
   element::FineCell f;
   f.K = cell_stiffness(C, e, buffer);
   f.R = C.identity_rotations ? nullptr : &C.rotation[9 * e];
@@ -73,7 +75,8 @@ CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D)
   if (kinds.size() <= kMaxKinds) {
     C.kind_stiffness.resize(kinds.size());
     for (const auto& [lm, id] : kinds)
-      element::cell_stiffness(element::reference_matrices(), C.h, lm.first, lm.second, C.kind_stiffness[id].data());
+      element::cell_stiffness(element::reference_matrices(), C.h, lm.first, lm.second,
+                              C.kind_stiffness[id].data());
     for (std::size_t e = 0; e < n; ++e) C.kind[e] = kinds.at({C.lambda[e], C.mu[e]});
   }
   set_identity_rotations(C);
@@ -83,7 +86,8 @@ CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D)
 void set_identity_rotations(CellData& C) {
   C.identity_rotations = true;
   C.rotation.resize(9 * C.lambda.size());
-  for (std::size_t e = 0; e < C.lambda.size(); ++e) std::copy(kIdentity, kIdentity + 9, &C.rotation[9 * e]);
+  for (std::size_t e = 0; e < C.lambda.size(); ++e)
+    std::copy(kIdentity, kIdentity + 9, &C.rotation[9 * e]);
 }
 
 void update_rotations(const topology::DofLayout& D, const double* u_local, CellData& C) {
@@ -91,8 +95,7 @@ void update_rotations(const topology::DofLayout& D, const double* u_local, CellD
   C.rotation.resize(9 * D.cells.size());
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     double u24[24], F[9];
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) u24[3 * q + d] = u_local[3 * D.cell_corners[e][q] + d];
+    element::gather_cell(u_local, D.cell_corners[e].data(), u24);
     element::deformation_gradient_at_centre(u24, C.h, F);
     element::polar_rotation(F, &C.rotation[9 * e]);
   }
@@ -118,7 +121,8 @@ PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
     auto& nb = neighbours[r];
     std::sort(nb.begin(), nb.end());
     nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
-    d_nnz[r] = std::count_if(nb.begin(), nb.end(), [&](PetscInt g) { return g >= first && g < last; });
+    d_nnz[r] =
+        std::count_if(nb.begin(), nb.end(), [&](PetscInt g) { return g >= first && g < last; });
     o_nnz[r] = PetscInt(nb.size()) - d_nnz[r];
     std::vector<PetscInt>().swap(nb);
   }
@@ -156,12 +160,10 @@ void apply_local(const topology::DofLayout& D, const CellData& C, const Operator
                  const double* x, double* y) {
   double buffer[element::kElementMatrixSize], xe[24], ye[24];
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) xe[3 * q + d] = x[3 * D.cell_corners[e][q] + d];
+    element::gather_cell(x, D.cell_corners[e].data(), xe);
     std::fill(ye, ye + 24, 0.0);
     element::fine_cell_apply_add(fine_cell_view(C, e, w, buffer), xe, ye);
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) y[3 * D.cell_corners[e][q] + d] += ye[3 * q + d];
+    element::scatter_add_cell(ye, D.cell_corners[e].data(), y);
   }
 }
 
@@ -208,8 +210,7 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const C
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     const double* K = cell_stiffness(C, e, buffer);
     element::corotational_rhs(&C.rotation[9 * e], K, x24, be);
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) ba[3 * D.cell_corners[e][q] + d] += stiffness_weight * be[3 * q + d];
+    element::scatter_add_cell(be, D.cell_corners[e].data(), ba, stiffness_weight);
   }
   PetscCall(VecRestoreArray(bl, &ba));
   PetscCall(DMLocalToGlobalBegin(dm, bl, ADD_VALUES, b));
@@ -218,8 +219,9 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const C
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode reference_positions(DM dm, const lattice::Lattice& L, const topology::VertexCopies& V,
-                                   const topology::DofLayout& D, Vec* x) {
+PetscErrorCode reference_positions(DM dm, const lattice::Lattice& L,
+                                   const topology::VertexCopies& V, const topology::DofLayout& D,
+                                   Vec* x) {
   PetscFunctionBeginUser;
   PetscCall(DMCreateGlobalVector(dm, x));
   PetscScalar* a;

@@ -19,6 +19,20 @@ struct FineCell {
   const double* consistent_mass;
 };
 
+/// The 24 values (3 per corner) of a cell from a vector with 3 values per vertex copy;
+/// `corners` are the cell's 8 local copy indices.
+HEXCUT_HD inline void gather_cell(const double* v, const int* corners, double* out24) {
+  for (int q = 0; q < 8; ++q)
+    for (int d = 0; d < 3; ++d) out24[3 * q + d] = v[3 * corners[q] + d];
+}
+
+/// v += scale * in24 at the cell's 8 corners (3 values each).
+HEXCUT_HD inline void scatter_add_cell(const double* in24, const int* corners, double* v,
+                                       double scale = 1.0) {
+  for (int q = 0; q < 8; ++q)
+    for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += scale * in24[3 * q + d];
+}
+
 /// Three rows of a 24x24 row-major matrix times x24, with six independent partial sums
 /// (a single running sum per row would make the loop wait on add latency).
 HEXCUT_HD inline void three_rows(const double* K, const double* x24, double* y3) {
@@ -48,7 +62,8 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
     double yl[3];
     three_rows(Kq, xl, yl);
-    for (int i = 0; i < 3; ++i) y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
+    for (int i = 0; i < 3; ++i)
+      y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
   } else {
     three_rows(Kq, x24, y3);
     for (int e = 0; e < 3; ++e) y3[e] *= c.w_stiffness;
@@ -66,7 +81,8 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
 
 /// y24 += S x24 for a symmetric 24x24 S, as a sum of rows scaled by x (row k of S is
 /// column k): 24 independent accumulators that the compiler vectorizes.
-HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const double* x24, double* y24) {
+HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const double* x24,
+                                          double* y24) {
   double acc[24] = {0};
   for (int k = 0; k < 24; ++k) {
     const double xk = x24[k];
@@ -88,7 +104,8 @@ HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, 
     symmetric_apply_add(c.K, c.w_stiffness, xl, yl);
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
-        y24[3 * p + i] += R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
+        y24[3 * p + i] +=
+            R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
   } else {
     symmetric_apply_add(c.K, c.w_stiffness, x24, y24);
   }
@@ -110,10 +127,12 @@ HEXCUT_HD inline void fine_diagonal_block(const FineCell& c, int q, double* D) {
   if (c.R) {
     const double* R = c.R;
     for (int i = 0; i < 3; ++i)  // T = R Kqq
-      for (int j = 0; j < 3; ++j) T[3 * i + j] = R[3 * i] * Kqq[j] + R[3 * i + 1] * Kqq[3 + j] + R[3 * i + 2] * Kqq[6 + j];
+      for (int j = 0; j < 3; ++j)
+        T[3 * i + j] = R[3 * i] * Kqq[j] + R[3 * i + 1] * Kqq[3 + j] + R[3 * i + 2] * Kqq[6 + j];
     for (int i = 0; i < 3; ++i)  // D = T R^T
       for (int j = 0; j < 3; ++j)
-        D[3 * i + j] = c.w_stiffness * (T[3 * i] * R[3 * j] + T[3 * i + 1] * R[3 * j + 1] + T[3 * i + 2] * R[3 * j + 2]);
+        D[3 * i + j] = c.w_stiffness * (T[3 * i] * R[3 * j] + T[3 * i + 1] * R[3 * j + 1] +
+                                        T[3 * i + 2] * R[3 * j + 2]);
   } else {
     for (int i = 0; i < 9; ++i) D[i] = c.w_stiffness * Kqq[i];
   }

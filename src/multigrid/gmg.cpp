@@ -75,20 +75,6 @@ void Multigrid::refresh_local_mask(LevelData& d) {
   check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
 }
 
-namespace {
-
-void gather24(const double* v, const std::array<std::int32_t, 8>& corners, double* out) {
-  for (int q = 0; q < 8; ++q)
-    for (int d = 0; d < 3; ++d) out[3 * q + d] = v[3 * corners[q] + d];
-}
-
-void scatter_add24(const double* in, const std::array<std::int32_t, 8>& corners, double* v) {
-  for (int q = 0; q < 8; ++q)
-    for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += in[3 * q + d];
-}
-
-}  // namespace
-
 Options read_options() {
   Options o;
   PetscInt n;
@@ -359,12 +345,11 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
     built_rotation_.assign(cells.rotation.size(), 0.0);
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
-    const auto& fine = levels_[l - 1];
     const auto& fd = *data_[l - 1];
     const std::size_t n = levels_[l].layout.cells.size();
     if (d.cell_matrix.size() != kPackedSize * n) d.cell_matrix.assign(kPackedSize * n, 0.0);
     d.dirty.assign(n, 0);
-    double A[576], child[576], parent[576];
+    double child[576], parent[576];
     for (std::size_t C = 0; C < n; ++C) {
       for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k)
         if (fd.dirty[d.children[k]]) d.dirty[C] = 1;
@@ -374,12 +359,8 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
       for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k) {
         const auto e = std::size_t(d.children[k]);
         if (l - 1 == 0) {
-          assembly::cell_operator(cells, e, w, A);
+          masked_fine_operator(e, child);
           std::copy_n(&cells.rotation[9 * e], 9, &built_rotation_[9 * e]);
-          double m[24];
-          gather24(fd.mask_local.data(), fine.layout.cell_corners[e], m);
-          for (int r = 0; r < 24; ++r)
-            for (int c = 0; c < 24; ++c) child[24 * r + c] = A[24 * r + c] * m[r] * m[c];
         } else {
           unpack_symmetric(&fd.cell_matrix[kPackedSize * e], child);
         }
@@ -404,6 +385,16 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
   built_ = true;
   PetscLogEventEnd(ev_setup_, 0, 0, 0, 0);
   if (opt_.view) check_petsc(view(PETSC_VIEWER_STDOUT_(comm_)), "view");
+}
+
+void Multigrid::masked_fine_operator(std::size_t e, double* A) const {
+  // The fine cell's 24x24 operator with the rows and columns of prescribed DOFs zeroed:
+  // the constrained operator the coarse levels are built from.
+  assembly::cell_operator(*fine_cells_, e, weights_, A);
+  double m[24];
+  element::gather_cell(data_[0]->mask_local.data(), levels_[0].layout.cell_corners[e].data(), m);
+  for (int r = 0; r < 24; ++r)
+    for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
 }
 
 void Multigrid::build_diagonal(int l) {
@@ -478,7 +469,7 @@ void Multigrid::apply_local(int l, const double* x, double* y) const {
     const auto& m = d.mask_local;
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
       const auto& corners = D.cell_corners[e];
-      gather24(x, corners, xe);
+      element::gather_cell(x, corners.data(), xe);
       std::fill(ye, ye + 24, 0.0);
       if (d.cell_masked[e]) {
         for (int q = 0; q < 8; ++q)
@@ -489,14 +480,14 @@ void Multigrid::apply_local(int l, const double* x, double* y) const {
       } else {
         fine_cell_apply_add(d.fine[e], xe, ye);
       }
-      scatter_add24(ye, corners, y);
+      element::scatter_add_cell(ye, corners.data(), y);
     }
   } else {
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
-      gather24(x, D.cell_corners[e], xe);
+      element::gather_cell(x, D.cell_corners[e].data(), xe);
       std::fill(ye, ye + 24, 0.0);
       packed_apply_add(&d.cell_matrix[kPackedSize * e], xe, ye);
-      scatter_add24(ye, D.cell_corners[e], y);
+      element::scatter_add_cell(ye, D.cell_corners[e].data(), y);
     }
   }
 }
@@ -571,7 +562,7 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
       const auto& corners = D.cell_corners[e];
       const int q = corner_of_colour(d.cell_pos[e].data(), k);
       if (l == 0) {
-        gather24(xa, corners, xe);
+        element::gather_cell(xa, corners.data(), xe);
         if (d.cell_masked[e]) {
           const auto& m = d.mask_local;
           for (int p = 0; p < 8; ++p)
@@ -582,7 +573,7 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
           fine_row_block(d.fine[e], q, xe, y3);
         }
       } else {
-        gather24(xa, corners, xe);
+        element::gather_cell(xa, corners.data(), xe);
         packed_row_block(&d.cell_matrix[kPackedSize * e], q, xe, y3);
       }
       for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c];
@@ -732,21 +723,13 @@ void Multigrid::build_coarsest() {
   double A[576];
   PetscInt idx[8];
   for (std::size_t e = 0; e < lev.layout.cells.size(); ++e) {
-    const double* Ae;
-    if (l == 0) {
-      assembly::cell_operator(*fine_cells_, e, weights_, A);
-      double m[24];
-      gather24(d.mask_local.data(), lev.layout.cell_corners[e], m);
-      for (int r = 0; r < 24; ++r)
-        for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
-      Ae = A;
-    } else {
+    if (l == 0)
+      masked_fine_operator(e, A);
+    else
       unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
-      Ae = A;
-    }
     for (int q = 0; q < 8; ++q)
       idx[q] = lev.layout.global_block[lev.layout.copies[lev.layout.cell_corners[e][q]]];
-    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, Ae, ADD_VALUES),
+    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, A, ADD_VALUES),
                 "MatSetValuesBlocked");
   }
   PetscInt lo;

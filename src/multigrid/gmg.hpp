@@ -123,6 +123,7 @@ class Multigrid {
   PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
   PetscErrorCode cycle_level(int l, bool zero_guess);
   void build_diagonal(int l);
+  void masked_fine_operator(std::size_t e, double* A) const;
   void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
   void refresh_local_mask(LevelData& d);
   void estimate_lambda_max(int l);
