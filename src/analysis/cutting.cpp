@@ -1,10 +1,13 @@
 #include "analysis/cutting.hpp"
 
+#include <array>
 #include <cstdio>
 #include <numeric>
 
 #include "analysis/events.hpp"
+#include "assembly/operator.hpp"
 #include "common/errors.hpp"
+#include "common/mpi_gather.hpp"
 #include "common/petsc_check.hpp"
 #include "cut/link_cut.hpp"
 
@@ -50,31 +53,18 @@ std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& M
   // Each rank moves its own cells, then all ranks exchange the displacements.
   Vec ul;
   check_petsc(DMGetLocalVector(M.dm, &ul), "DMGetLocalVector");
-  check_petsc(DMGlobalToLocalBegin(M.dm, u, INSERT_VALUES, ul), "g2l");
-  check_petsc(DMGlobalToLocalEnd(M.dm, u, INSERT_VALUES, ul), "g2l");
+  check_petsc(assembly::global_to_local(M.dm, u, ul), "global_to_local");
   const PetscScalar* a;
   check_petsc(VecGetArrayRead(ul, &a), "VecGetArrayRead");
-  std::vector<double> mine(3 * D.cells.size(), 0.0);
+  std::vector<std::array<double, 3>> mine(D.cells.size(), {0.0, 0.0, 0.0});
   for (std::size_t e = 0; e < D.cells.size(); ++e)
     for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) mine[3 * e + d] += 0.125 * a[3 * D.cell_corners[e][q] + d];
+      for (int d = 0; d < 3; ++d) mine[e][d] += 0.125 * a[3 * D.cell_corners[e][q] + d];
   check_petsc(VecRestoreArrayRead(ul, &a), "VecRestoreArrayRead");
   check_petsc(DMRestoreLocalVector(M.dm, &ul), "DMRestoreLocalVector");
-  int size;
-  MPI_Comm_size(comm, &size);
-  int n = int(D.cells.size());
-  std::vector<int> counts(size), offsets(size + 1, 0);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
-  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
-  std::vector<std::int32_t> ids(offsets[size]);
-  MPI_Allgatherv(D.cells.data(), n, MPI_INT32_T, ids.data(), counts.data(), offsets.data(),
-                 MPI_INT32_T, comm);
-  for (int r = 0; r < size; ++r) counts[r] *= 3, offsets[r] *= 3;
-  std::vector<double> disp(3 * ids.size());
-  MPI_Allgatherv(mine.data(), 3 * n, MPI_DOUBLE, disp.data(), counts.data(), offsets.data(),
-                 MPI_DOUBLE, comm);
-  for (std::size_t k = 0; k < ids.size(); ++k)
-    centres[ids[k]] += Eigen::Vector3d(disp[3 * k], disp[3 * k + 1], disp[3 * k + 2]);
+  const auto ids = allgather(comm, D.cells);
+  const auto disp = allgather(comm, mine);
+  for (std::size_t k = 0; k < ids.size(); ++k) centres[ids[k]] += Eigen::Vector3d(disp[k].data());
   return centres;
 }
 

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
 #include "analysis/events.hpp"
 #include "assembly/operator.hpp"
 #include "common/errors.hpp"
+#include "common/mpi_gather.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
 #include "hexcut_version.hpp"
@@ -212,15 +212,8 @@ void ResultOutput::write_surface(const State& s) {
     const auto mine = surface::boundary_hermite(M.lattice, deck::membership_ops(deck_),
                                                 std::int32_t(n * D.rank / size),
                                                 std::int32_t(n * (D.rank + 1) / size));
-    static_assert(std::is_trivially_copyable_v<surface::BoundaryCrossing>);
-    const int bytes = int(mine.faces.size() * sizeof(surface::BoundaryCrossing));
-    std::vector<int> counts(size), offsets(size + 1, 0);
-    MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_);
-    for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
     hermite_ = std::make_unique<surface::BoundaryHermite>();
-    hermite_->faces.resize(offsets[size] / sizeof(surface::BoundaryCrossing));
-    MPI_Allgatherv(mine.faces.data(), bytes, MPI_BYTE, hermite_->faces.data(), counts.data(),
-                   offsets.data(), MPI_BYTE, comm_);
+    hermite_->faces = allgather(comm_, mine.faces);
   }
   if (!surface_) {
     // Every rank builds the same surface from the replicated lattice (canonical vertex

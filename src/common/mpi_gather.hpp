@@ -1,0 +1,29 @@
+// Every rank's share of a table, concatenated in rank order, on every rank: for the
+// small replicated tables (cell centres at a cut, boundary Hermite data) that every rank
+// of hexcut keeps whole.
+#pragma once
+
+#include <mpi.h>
+
+#include <type_traits>
+#include <vector>
+
+namespace hexcut {
+
+/// The ranks' `mine` concatenated in rank order (byte counts are int: below 2 GiB).
+template <class T>
+std::vector<T> allgather(MPI_Comm comm, const std::vector<T>& mine) {
+  static_assert(std::is_trivially_copyable_v<T>, "sent as bytes");
+  int size;
+  MPI_Comm_size(comm, &size);
+  const int bytes = int(mine.size() * sizeof(T));
+  std::vector<int> counts(size), offsets(size + 1, 0);
+  MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<T> all(offsets[size] / sizeof(T));
+  MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
+                 comm);
+  return all;
+}
+
+}  // namespace hexcut
