@@ -140,13 +140,18 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   // Cuts (design.md §6). Static analyses apply every cut to the undeformed body before
   // solving; dynamic ones apply each when its time comes, in the deformed configuration.
   an::Cutter cutter(deck, model.lattice);
+  // After the topology changed: a solver (and multigrid hierarchy) for the new DM, and
+  // output tables for the new vertex copies.
+  auto follow_topology = [&] {
+    sim.reset();
+    sim = std::make_unique<an::Simulation>(comm, model, deck);
+    out.topology_changed();
+  };
   auto apply_cuts = [&](double t) {
     const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
     if (r.links > 0) {
       PetscLogEventBegin(ev.rebuild, 0, 0, 0, 0);
-      sim.reset();
-      sim = std::make_unique<an::Simulation>(comm, model, deck);
-      out.topology_changed();
+      follow_topology();
       PetscLogEventEnd(ev.rebuild, 0, 0, 0, 0);
     }
     print_cut_report(comm, model, r, t);
@@ -160,11 +165,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     const auto links = out.checkpoint_cut_links();
     if (!links.empty()) {
       check_petsc(an::destroy_state(&state), "destroy_state");
-      sim.reset();
       check_petsc(an::restore_cuts(comm, deck, links, &model), "restore_cuts");
       check_petsc(an::create_state(model.dm, &state), "create_state");
-      sim = std::make_unique<an::Simulation>(comm, model, deck);
-      out.topology_changed();
+      follow_topology();
     }
     out.read_checkpoint(&state);
     cutter.skip_due(state.time);
