@@ -173,17 +173,9 @@ def check_xdmf(h5path, steps):
             expect(topo.get("TopologyType") == "Hexahedron", "topology type")
             expect(int(topo.get("NumberOfElements")) == NC, "NumberOfElements")
             expect(grid.find("Geometry").get("GeometryType") == "XYZ", "geometry type")
-            items = grid.findall(".//DataItem")
             names = {a.get("Name") for a in grid.findall("Attribute")}
             expect(names >= set(POINT_FIELDS) | set(CELL_FIELDS), f"grid {s} attributes {names}")
-            for item in items:
-                file_part, _, dataset = item.text.strip().partition(":")
-                expect(file_part == basename, f"reference {item.text} is not relative")
-                expect(dataset in f, f"xmf references missing dataset {dataset}")
-                dims = tuple(int(x) for x in item.get("Dimensions").split())
-                expect(f[dataset].shape == dims, f"{dataset}: xmf dims {dims} != {f[dataset].shape}")
-                want = NUMBER_TYPES[(item.get("NumberType"), int(item.get("Precision")))]
-                expect(f[dataset].dtype == np.dtype(want), f"{dataset}: xmf type {want}")
+            check_data_items(f, grid, basename)
             for a in grid.findall("Attribute"):
                 cols = f[a.find("DataItem").text.split(":", 1)[1]].shape[1:]
                 want = {(): "Scalar", (3,): "Vector", (6,): "Tensor6", (9,): "Tensor"}[cols]

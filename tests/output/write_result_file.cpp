@@ -218,16 +218,7 @@ int run(int argc, char** argv) {
   const Slab& C = mesh.cells;
   for (int s = 0; s < steps; ++s) {
     const double time = 0.25 * s;
-    SolveRecord rec;
-    rec.step = s;
-    rec.time = time;
-    rec.iterations = 10 + s;
-    rec.residual_norm = 1e-9 * (s + 1);
-    rec.relative_residual = 1e-12 * (s + 1);
-    rec.setup_seconds = 0.5;
-    rec.solve_seconds = 1.5;
-    rec.converged_reason = 2;
-    writer.append_solve(rec);
+    writer.append_solve(solve_record(s));
 
     writer.begin_step(s, time);
     write_fields(writer, s, P, C, [&] {
