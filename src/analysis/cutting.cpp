@@ -2,7 +2,6 @@
 
 #include <array>
 #include <cstdio>
-#include <numeric>
 
 #include "analysis/events.hpp"
 #include "assembly/operator.hpp"
@@ -10,6 +9,7 @@
 #include "common/mpi_gather.hpp"
 #include "common/petsc_check.hpp"
 #include "cut/link_cut.hpp"
+#include "topology/union_find.hpp"
 
 namespace hexcut::analysis {
 
@@ -139,27 +139,19 @@ PetscErrorCode restore_cuts(MPI_Comm comm, const deck::Deck& deck,
 
 std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
   const auto& L = M.lattice;
-  // Union-find over the links.
-  std::vector<std::int32_t> root(L.num_cells());
-  std::iota(root.begin(), root.end(), 0);
-  auto find = [&](std::int32_t c) {
-    while (root[c] != c) c = root[c] = root[root[c]];
-    return c;
-  };
+  auto root = topology::make_union_find(L.num_cells());
   for (std::int32_t c = 0; c < L.num_cells(); ++c)
     for (int d = 0; d < 3; ++d) {
       if (!L.linked(c, d)) continue;
       const auto& p = L.ijk[c];
       const auto nb = L.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
-      if (nb < 0) continue;
-      const auto a = find(c), b = find(nb);
-      if (a != b) root[std::max(a, b)] = std::min(a, b);
+      if (nb >= 0) topology::unite(root, c, nb);
     }
   std::vector<int> piece_of_root(L.num_cells(), -1);
   std::vector<Piece> pieces;
   std::vector<int> piece(L.num_cells());
   for (std::int32_t c = 0; c < L.num_cells(); ++c) {
-    const auto r = find(c);
+    const auto r = topology::find_root(root, c);
     if (piece_of_root[r] < 0) {
       piece_of_root[r] = int(pieces.size());
       pieces.push_back({int(pieces.size()) + 1, 0, {}, false});

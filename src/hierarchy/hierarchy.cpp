@@ -3,17 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numeric>
+
+#include "topology/union_find.hpp"
 
 namespace hexcut::hierarchy {
 namespace {
 
-int find_root(std::vector<std::int32_t>& parent, std::int32_t a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
+int octant_of(const std::array<std::int32_t, 3>& p) {
+  return (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1);
 }
-
-int octant_of(const std::array<std::int32_t, 3>& p) { return (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1); }
 
 /// Weights of the 8 coarse corners at a point with coarse-local coordinates t in [0,1]^3.
 void trilinear(const double t[3], double w[8]) {
@@ -32,7 +30,8 @@ double transfer_weight(int octant, int fine_corner, int coarse_corner) {
   return w[coarse_corner];
 }
 
-topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, std::vector<std::int32_t>* parent) {
+topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode,
+                            std::vector<std::int32_t>* parent) {
   const std::int32_t n = fine.num_cells();
   topology::CellGraph coarse;
   coarse.spec = fine.spec;
@@ -43,28 +42,23 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, st
     return coarse.spec.cell_index(p[0] / 2, p[1] / 2, p[2] / 2);
   };
   // Union cells of one block: linked ones (components) or all of them (naive).
-  std::vector<std::int32_t> root(n);
-  std::iota(root.begin(), root.end(), 0);
+  auto root = topology::make_union_find(n);
   if (mode == Coarsening::components) {
     for (std::int32_t c = 0; c < n; ++c)
       for (auto l = fine.link_offset[c]; l < fine.link_offset[c + 1]; ++l) {
         const auto b = fine.link_target[l];
-        if (block_key(b) != block_key(c)) continue;
-        const auto ra = find_root(root, c), rb = find_root(root, b);
-        if (ra != rb) root[std::max(ra, rb)] = std::min(ra, rb);
+        if (block_key(b) == block_key(c)) topology::unite(root, c, b);
       }
   } else {
     std::map<std::int64_t, std::int32_t> first;
     for (std::int32_t c = 0; c < n; ++c) {
-      auto it = first.emplace(block_key(c), c).first;
-      const auto ra = find_root(root, c), rb = find_root(root, it->second);
-      if (ra != rb) root[std::max(ra, rb)] = std::min(ra, rb);
+      topology::unite(root, c, first.emplace(block_key(c), c).first->second);
     }
   }
   // Coarse cells in order of (block, lowest child): deterministic, rank-independent.
   std::vector<std::int32_t> roots;
   for (std::int32_t c = 0; c < n; ++c)
-    if (find_root(root, c) == c) roots.push_back(c);
+    if (topology::find_root(root, c) == c) roots.push_back(c);
   std::stable_sort(roots.begin(), roots.end(),
                    [&](std::int32_t a, std::int32_t b) { return block_key(a) < block_key(b); });
   std::vector<std::int32_t> coarse_of_root(n, -1);
@@ -74,7 +68,7 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, st
     coarse.ijk.push_back({p[0] / 2, p[1] / 2, p[2] / 2});
   }
   parent->resize(n);
-  for (std::int32_t c = 0; c < n; ++c) (*parent)[c] = coarse_of_root[find_root(root, c)];
+  for (std::int32_t c = 0; c < n; ++c) (*parent)[c] = coarse_of_root[topology::find_root(root, c)];
   // Coarse links: any fine link between different coarse cells.
   std::vector<std::array<std::int32_t, 2>> pairs;
   for (std::int32_t c = 0; c < n; ++c)
@@ -88,9 +82,10 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode, st
   return coarse;
 }
 
-std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
-                                   const topology::Partition& partition, const topology::DofLayout& layout,
-                                   const HierarchyOptions& opt) {
+std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
+                                   const topology::VertexCopies& copies,
+                                   const topology::Partition& partition,
+                                   const topology::DofLayout& layout, const HierarchyOptions& opt) {
   const int rank = layout.rank;
   std::vector<Level> levels(1);
   levels[0].graph = fine;
@@ -110,7 +105,8 @@ std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topolo
     c.partition.superblock = std::max(1, f.partition.superblock / 2);
     c.partition.cell_rank.assign(c.graph.num_cells(), 0);
     const auto& par = levels.back().parent;
-    for (std::int32_t e = 0; e < f.graph.num_cells(); ++e) c.partition.cell_rank[par[e]] = f.partition.cell_rank[e];
+    for (std::int32_t e = 0; e < f.graph.num_cells(); ++e)
+      c.partition.cell_rank[par[e]] = f.partition.cell_rank[e];
     c.partition.copy_rank.resize(c.copies.num_copies);
     for (std::int32_t v = 0; v < c.copies.num_copies; ++v)
       c.partition.copy_rank[v] = c.partition.cell_rank[c.copies.first_cell[v]];

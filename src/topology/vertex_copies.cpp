@@ -1,14 +1,12 @@
 #include "topology/vertex_copies.hpp"
 
 #include <algorithm>
+#include <numeric>
+
+#include "topology/union_find.hpp"
 
 namespace hexcut::topology {
 namespace {
-
-int find_root(std::vector<int>& parent, int a) {
-  while (parent[a] != a) a = parent[a] = parent[parent[a]];
-  return a;
-}
 
 /// Cells grouped by position: cells_at(p) lists the cells at dense position p.
 struct PositionIndex {
@@ -36,7 +34,8 @@ VertexCopies build_vertex_copies(const CellGraph& G) {
   const PositionIndex index(G);
   V.cell_corners.assign(n, {-1, -1, -1, -1, -1, -1, -1, -1});
   std::vector<std::int32_t> cells;  // cells around the current vertex
-  std::vector<int> slot, parent, copy_of_root;
+  std::vector<int> slot, copy_of_root;
+  std::vector<std::int32_t> parent;  // union-find over the cells around one vertex (reused)
   for (std::int32_t c = 0; c < n; ++c) {
     for (int q = 0; q < 8; ++q) {
       if (V.cell_corners[c][q] >= 0) continue;
@@ -49,7 +48,9 @@ VertexCopies build_vertex_copies(const CellGraph& G) {
       for (int s = 0; s < 8; ++s) {
         const auto o = corner_offset(s);
         const int p[3] = {v[0] - 1 + o[0], v[1] - 1 + o[1], v[2] - 1 + o[2]};
-        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= dims[0] || p[1] >= dims[1] || p[2] >= dims[2]) continue;
+        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= dims[0] || p[1] >= dims[1] ||
+            p[2] >= dims[2])
+          continue;
         const auto key = G.spec.cell_index(p[0], p[1], p[2]);
         for (auto i = index.offset[key]; i < index.offset[key + 1]; ++i) {
           cells.push_back(index.cells[i]);
@@ -60,13 +61,12 @@ VertexCopies build_vertex_copies(const CellGraph& G) {
       // are linked share a face that contains v.
       const int m = int(cells.size());
       parent.resize(m);
-      for (int i = 0; i < m; ++i) parent[i] = i;
+      std::iota(parent.begin(), parent.end(), 0);
       for (int i = 0; i < m; ++i)
         for (auto l = G.link_offset[cells[i]]; l < G.link_offset[cells[i] + 1]; ++l) {
           const auto it = std::find(cells.begin(), cells.end(), G.link_target[l]);
           if (it == cells.end()) continue;
-          const int a = find_root(parent, i), b = find_root(parent, int(it - cells.begin()));
-          if (a != b) parent[std::max(a, b)] = std::min(a, b);
+          unite(parent, i, std::int32_t(it - cells.begin()));
         }
       // One copy per component, numbered in order of the component's first cell.
       copy_of_root.assign(m, -1);
@@ -87,6 +87,8 @@ VertexCopies build_vertex_copies(const CellGraph& G) {
   return V;
 }
 
-VertexCopies build_vertex_copies(const lattice::Lattice& L) { return build_vertex_copies(graph_from_lattice(L)); }
+VertexCopies build_vertex_copies(const lattice::Lattice& L) {
+  return build_vertex_copies(graph_from_lattice(L));
+}
 
 }  // namespace hexcut::topology
