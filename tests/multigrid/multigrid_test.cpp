@@ -141,15 +141,15 @@ TEST(Multigrid, GalerkinBlocksEqualPtAP) {
   for (Mat& m : owned) MatDestroy(&m);
 }
 
-/// Turns the rotation of every local cell with x-origin below `x_max` by `angle` about z;
+/// Turns the rotation of every local cell with x-origin in [x_min, x_max) by `angle` about z;
 /// returns the canonical ids of the turned cells.
-std::vector<std::int32_t> turn_cells(Job& job, double x_max, double angle) {
+std::vector<std::int32_t> turn_cells(Job& job, double x_min, double x_max, double angle) {
   auto& cells = job.model.cells;
   const Eigen::Matrix3d turn =
       Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   std::vector<std::int32_t> turned;
   for (std::size_t e = 0; e < job.model.layout.cells.size(); ++e) {
-    if (cells.origin[e][0] >= x_max) continue;
+    if (cells.origin[e][0] < x_min || cells.origin[e][0] >= x_max) continue;
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(&cells.rotation[9 * e]);
     R = (turn * R).eval();
     turned.push_back(job.model.layout.cells[e]);
@@ -176,8 +176,10 @@ TEST(Multigrid, PartialRebuildTouchesOnlyAncestorsAndEqualsFullRebuild) {
   for (int l = 0; l < 3; ++l)
     EXPECT_EQ(mg->rebuilt_cells(l), std::int64_t(mg->level(l).layout.cells.size()))
         << "first update: all";
-  // Turn the cells near the clamped end; the ancestors of exactly those are rebuilt.
-  const auto turned = turn_cells(ops.job, 0.25, 0.1);
+  // Turn a slab of cells; the ancestors of exactly those are rebuilt.
+  // Cells 3..5 along x (h = 0.1): blocks [2,3] and [4,5] of level 1 get some turned
+  // children, not all, and not always their first one.
+  const auto turned = turn_cells(ops.job, 0.25, 0.55, 0.1);
   std::set<std::int32_t> parents1, parents2;
   for (auto c : turned) parents1.insert(mg->level(0).parent[c]);
   for (auto c : parents1) parents2.insert(mg->level(1).parent[c]);
@@ -211,7 +213,7 @@ TEST(Multigrid, RebuildToleranceKeepsCoarseBlocksButNotTheFineOperator) {
   const assembly::OperatorWeights w{1.0, 5.0, true};
   Operators ops(kBlock, w, "-gmg_levels 3 -gmg_rebuild_tol 0.5");
   auto* mg = ops.job.sim->multigrid();
-  turn_cells(ops.job, 0.25, 0.1);  // entries move by < 0.1
+  turn_cells(ops.job, -1.0, 0.25, 0.1);  // entries move by < 0.1
   mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
   EXPECT_EQ(mg->rebuilt_cells(1), 0);
   EXPECT_EQ(mg->rebuilt_cells(2), 0);
