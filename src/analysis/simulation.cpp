@@ -211,7 +211,9 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
                                     c.a0 + c.a1 * an.rayleigh_mass, lumped};
   if (corotational()) refresh_rotations(s.u);
   if (corotational() || !assembled_) assemble(w);
-  const double t1 = s.time + an.dt;
+  // t = n dt, not a running sum: summing dt drifts (0.1 + 0.1 + ... = 2.9999999999999583)
+  // and then a time that a user asks for (ParaView, a cut time) falls on the step before.
+  const double t1 = double(s.step + 1) * an.dt;
   ScratchVec b(model_.dm), hist(model_.dm), tmp(model_.dm), u_new(model_.dm);
   auto& M = model_;
   check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, b),

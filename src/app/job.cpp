@@ -221,7 +221,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
       while (state.step < total) {
         // Cuts due by the end of this step act on the configuration at its start; then
         // the operator, preconditioner and output tables follow the new topology.
-        if (cutter.pending()) apply_cuts(state.time + deck.analysis.dt);
+        if (cutter.pending()) apply_cuts(double(state.step + 1) * deck.analysis.dt);
         const auto rec = sim->newmark_step(state);
         obs.on_solve(state, rec);
         obs.on_step(state);
