@@ -1,6 +1,9 @@
 #include "analysis/cutting.hpp"
 
 #include <array>
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <algorithm>
 #include <cstdio>
 
 #include "analysis/events.hpp"
@@ -154,7 +157,7 @@ std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
     const auto r = topology::find_root(root, c);
     if (piece_of_root[r] < 0) {
       piece_of_root[r] = int(pieces.size());
-      pieces.push_back({int(pieces.size()) + 1, 0, {}, false});
+      pieces.push_back({int(pieces.size()) + 1, 0, {}, false, {}});
     }
     auto& p = pieces[piece_of_root[r]];
     piece[c] = piece_of_root[r];
@@ -163,16 +166,101 @@ std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
     p.box.extend(L.spec.vertex_position(ijk[0], ijk[1], ijk[2]));
     p.box.extend(L.spec.vertex_position(ijk[0] + 1, ijk[1] + 1, ijk[2] + 1));
   }
-  // Support: a prescribed DOF of one of the piece's copies (rows are owned here).
-  std::vector<int> supported(pieces.size(), 0);
+  // Supports: a prescribed DOF of one of the piece's copies (rows are owned here) holds
+  // the rigid motions in which it moves. Per piece, G = sum over its prescribed DOFs of
+  // r r^T, r the DOF's row of the six rigid modes (translations; rotations about the
+  // box centre, scaled by the box's half diagonal so all entries are <= 1): the modes
+  // in G's null space move no prescribed DOF.
+  const std::size_t np = pieces.size();
+  std::vector<double> gram(36 * np, 0.0);
   const PetscInt first = 3 * M.layout.first_owned_block();
   for (PetscInt row : M.boundary.constraints.rows) {
     const auto copy = M.layout.copies[(row - first) / 3];
-    supported[piece[M.copies.first_cell[copy]]] = 1;
+    const int d = int((row - first) % 3);
+    const auto k = std::size_t(piece[M.copies.first_cell[copy]]);
+    const auto& v = M.copies.vertex[copy];
+    const auto& box = pieces[k].box;
+    const double scale = std::max(0.5 * box.diagonal().norm(), 1e-300);
+    const Eigen::Vector3d x =
+        (L.spec.vertex_position(v[0], v[1], v[2]) - box.center()) / scale;
+    Eigen::Matrix<double, 6, 1> r = Eigen::Matrix<double, 6, 1>::Zero();
+    r[d] = 1.0;
+    for (int a = 0; a < 3; ++a) r[3 + a] = Eigen::Vector3d::Unit(a).cross(x)[d];
+    Eigen::Map<Eigen::Matrix<double, 6, 6>>(&gram[36 * k]) += r * r.transpose();
   }
-  MPI_Allreduce(MPI_IN_PLACE, supported.data(), int(supported.size()), MPI_INT, MPI_LOR, comm);
-  for (std::size_t k = 0; k < pieces.size(); ++k) pieces[k].supported = supported[k];
+  MPI_Allreduce(MPI_IN_PLACE, gram.data(), int(gram.size()), MPI_DOUBLE, MPI_SUM, comm);
+  for (std::size_t k = 0; k < np; ++k) {
+    const Eigen::Map<const Eigen::Matrix<double, 6, 6>> G(&gram[36 * k]);
+    pieces[k].supported = G.trace() > 0;
+    pieces[k].free_modes = free_rigid_modes(G, pieces[k].box);
+  }
   return pieces;
+}
+
+std::string free_rigid_modes(const Eigen::Matrix<double, 6, 6>& G, const Eigen::AlignedBox3d& box) {
+  // Null space of G: eigenvalues below a relative 1e-10. Partial supports give exact
+  // zeros (1e-16 in floating point); weak but real holds (two fixed vertices h apart on
+  // a piece of size 10^3 h) give (h/L)^2 = 1e-6.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(G);
+  const double tol = 1e-10 * std::max(1.0, eig.eigenvalues().maxCoeff());
+  Eigen::Matrix<double, 6, Eigen::Dynamic> N(6, 0);
+  for (int i = 0; i < 6; ++i)
+    if (eig.eigenvalues()[i] <= tol) {
+      N.conservativeResize(6, N.cols() + 1);
+      N.col(N.cols() - 1) = eig.eigenvectors().col(i);
+    }
+  if (N.cols() == 0) return "";
+  // Name the free modes along the axes (translation x; rotation about the z axis through
+  // the box centre) first, then describe what remains of the null space.
+  const char* axis = "xyz";
+  std::string translations, rotations;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> named(6, 0);
+  for (int i = 0; i < 6; ++i) {
+    const Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Unit(i);
+    if ((N.transpose() * e).squaredNorm() < 1.0 - 1e-8) continue;
+    auto& list = i < 3 ? translations : rotations;
+    list += std::string(list.empty() ? "" : ", ") + axis[i % 3];
+    named.conservativeResize(6, named.cols() + 1);
+    named.col(named.cols() - 1) = e;
+  }
+  std::string out;
+  if (!translations.empty()) out += "translation " + translations;
+  if (!rotations.empty()) {
+    // With both perpendicular translations free, any parallel axis is free too.
+    bool any_axis = true;
+    for (char r : rotations)
+      for (char t : std::string("xyz"))
+        if (r != ',' && r != ' ' && t != r && translations.find(t) == std::string::npos)
+          any_axis = false;
+    char buf[128];
+    std::snprintf(buf, sizeof buf, " (axes through (%g, %g, %g))", box.center().x(),
+                  box.center().y(), box.center().z());
+    out += (out.empty() ? "" : "; ") + std::string("rotation about ") + rotations +
+           (any_axis ? "" : buf);
+  }
+  // The rest: N minus its projection on the named modes, orthonormalized.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> rest = N - named * (named.transpose() * N);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(rest, Eigen::ComputeThinU);
+  const double scale = std::max(0.5 * box.diagonal().norm(), 1e-300);
+  for (int j = 0; j < int(svd.singularValues().size()); ++j) {
+    if (svd.singularValues()[j] < 1e-6) continue;
+    const Eigen::Matrix<double, 6, 1> m = svd.matrixU().col(j);
+    // Displacement t + w x (p - c)/scale: a rotation about the axis through
+    // c + scale (w x t)/|w|^2 along w, or a translation along t when w = 0.
+    const Eigen::Vector3d t = m.head<3>(), w = m.tail<3>();
+    char buf[200];
+    if (w.norm() < 1e-6) {
+      const Eigen::Vector3d a = t.normalized();
+      std::snprintf(buf, sizeof buf, "translation along (%.3g, %.3g, %.3g)", a.x(), a.y(), a.z());
+    } else {
+      const Eigen::Vector3d a = w.normalized();
+      const Eigen::Vector3d p = box.center() + scale * w.cross(t) / w.squaredNorm();
+      std::snprintf(buf, sizeof buf, "rotation about the axis through (%.4g, %.4g, %.4g) along (%.3g, %.3g, %.3g)",
+                    p.x(), p.y(), p.z(), a.x(), a.y(), a.z());
+    }
+    out += (out.empty() ? "" : "; ") + std::string(buf);
+  }
+  return out;
 }
 
 std::string describe(const Piece& p) {
@@ -182,17 +270,20 @@ std::string describe(const Piece& p) {
   std::snprintf(buf, sizeof buf, "piece %d: %lld cells, box [%g, %g, %g] - [%g, %g, %g] m, %s",
                 p.id, (long long)p.cells, a.x(), a.y(), a.z(), b.x(), b.y(), b.z(),
                 p.supported ? "supported" : "unsupported");
-  return buf;
+  std::string out = buf;
+  if (p.supported && !p.free_modes.empty()) out += "; free: " + p.free_modes;
+  return out;
 }
 
 void require_supported(const std::vector<Piece>& pieces) {
   std::string bad;
   for (const auto& p : pieces)
-    if (!p.supported) bad += "\n  " + describe(p);
+    if (!p.free_modes.empty()) bad += "\n  " + describe(p);
   if (!bad.empty())
     throw SolverError(
-        "static analysis with an unsupported piece (its stiffness is singular; fix it with "
-        "boundary.fixed, or run a dynamic analysis):" +
+        "static analysis with a piece its supports do not hold (it can move rigidly, so its "
+        "stiffness is singular; add supports in boundary.fixed, or run a dynamic "
+        "analysis):" +
         bad);
 }
 

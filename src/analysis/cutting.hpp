@@ -70,12 +70,24 @@ struct Piece {
   std::int64_t cells = 0;
   Eigen::AlignedBox3d box;  // reference bounding box [m]
   bool supported = false;   // some DOF of it is prescribed
+  /// The rigid-body motions its prescribed DOFs leave free (doc/theory.md, "Pieces"),
+  /// e.g. "translation x, y; rotation about z"; empty when they hold all six.
+  std::string free_modes;
 };
-/// The pieces of the body. Collective (support is known per rank).
+/// The pieces of the body and the rigid motions their supports leave free. Collective
+/// (supports are known per rank).
 std::vector<Piece> find_pieces(MPI_Comm comm, const Model& model);
-/// "piece 2: 640 cells, box [0.1, 0, 0] - [0.5, 0.1, 0.1] m, unsupported".
+/// The rigid motions a piece's supports leave free, from G = sum r r^T over its
+/// prescribed DOFs (r: the DOF's row of the six rigid modes, translations and rotations
+/// about the box centre scaled by the box's half diagonal): "translation x, y; rotation
+/// about z (axes through (...))", then any other free motion as a rotation about an axis
+/// or a translation along a direction; empty when G has full rank.
+std::string free_rigid_modes(const Eigen::Matrix<double, 6, 6>& G, const Eigen::AlignedBox3d& box);
+/// "piece 2: 640 cells, box [0.1, 0, 0] - [0.5, 0.1, 0.1] m, unsupported", or
+/// "..., supported; free: translation x, y; rotation about z".
 std::string describe(const Piece& p);
-/// Throws SolverError naming every unsupported piece (static analyses cannot solve them).
+/// Throws SolverError naming every piece whose supports leave a rigid motion free
+/// (a static stiffness is then singular: solvers return huge or arbitrary displacements).
 void require_supported(const std::vector<Piece>& pieces);
 
 }  // namespace hexcut::analysis

@@ -1,11 +1,79 @@
 #include "analysis/model.hpp"
 
+#include <cmath>
+#include <cstdio>
+
+#include "analysis/memory.hpp"
 #include "common/errors.hpp"
 #include "geometry/voxelize.hpp"
 
 namespace hexcut::analysis {
 
-lattice::Lattice build_lattice(const deck::Deck& deck) {
+namespace {
+
+/// Young's moduli set by images (youngs_scale) must be usable: every filled cell whose
+/// E came from an image gets E > 0 and finite, else an InputError at the image's deck
+/// line with the number of such cells. Filled cells inside an image whose voxel is NaN
+/// keep their material's E: reported as a warning with the count.
+void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
+                        std::vector<std::string>* warnings) {
+  std::vector<const deck::GeometryStep*> images;
+  for (const auto& step : deck.geometry)
+    if (step.kind == deck::GeometryStep::Kind::image_youngs) images.push_back(&step);
+  if (images.empty() || grid.youngs.empty()) return;
+  struct Tally {
+    std::int64_t bad = 0, nan = 0;
+    std::array<int, 3> example{};
+    double value = 0.0;
+  };
+  std::vector<Tally> tally(images.size());
+  const auto& spec = grid.spec;
+  for (int k = 0; k < spec.dims[2]; ++k)
+    for (int j = 0; j < spec.dims[1]; ++j)
+      for (int i = 0; i < spec.dims[0]; ++i) {
+        const auto c = spec.cell_index(i, j, k);
+        if (grid.material[c] < 0) continue;
+        const Eigen::Vector3d x = spec.cell_centre(i, j, k);
+        // The image that decided this cell's E: the last one that covers its centre.
+        for (std::size_t s = images.size(); s-- > 0;) {
+          const auto box = images[s]->image->bounds();
+          const double v = images[s]->image->sample(x);
+          const bool inside =
+              ((x - box.lo).array() >= 0.0).all() && ((x - box.hi).array() < 0.0).all();
+          if (inside || !std::isnan(v)) {
+            auto& t = tally[s];
+            if (std::isnan(v)) {
+              ++t.nan;
+            } else if (const double E = grid.youngs[c]; !(E > 0.0) || !std::isfinite(E)) {
+              if (t.bad++ == 0) t.example = {i, j, k}, t.value = v;
+            }
+            break;
+          }
+        }
+      }
+  for (std::size_t s = 0; s < images.size(); ++s) {
+    const auto& t = tally[s];
+    if (t.bad > 0) {
+      char msg[400];
+      std::snprintf(msg, sizeof msg,
+                    "image: Young's modulus (youngs_scale x voxel value) is <= 0 or not finite "
+                    "in %lld filled cell(s), e.g. cell (%d, %d, %d): voxel %g x %g = %g Pa. Only "
+                    "E > 0 can be simulated: remove those cells (threshold + material, or a "
+                    "subtract) or correct the image",
+                    (long long)t.bad, t.example[0], t.example[1], t.example[2], t.value,
+                    images[s]->youngs_scale, t.value * images[s]->youngs_scale);
+      throw InputError(images[s]->where.prefix() + msg);
+    }
+    if (t.nan > 0 && warnings)
+      warnings->push_back(images[s]->where.prefix() + "warning: " + std::to_string(t.nan) +
+                          " filled cell(s) sample a NaN voxel of this image and keep their "
+                          "material's E");
+  }
+}
+
+}  // namespace
+
+lattice::Lattice build_lattice(const deck::Deck& deck, std::vector<std::string>* warnings) {
   auto grid = geometry::make_empty_grid(deck.lattice);
   for (const auto& step : deck.geometry) {
     if (step.kind == deck::GeometryStep::Kind::image_youngs)
@@ -15,6 +83,7 @@ lattice::Lattice build_lattice(const deck::Deck& deck) {
   if (geometry::count_filled(grid) == 0)
     throw InputError(deck.geometry.front().where.prefix() +
                      "the geometry is empty: no cell centre of the lattice lies inside the body");
+  check_image_youngs(deck, grid, warnings);
   std::vector<lattice::MaterialProperties> props;
   for (const auto& m : deck.materials)
     props.push_back({m.youngs_modulus, m.poisson_ratio, m.density});
@@ -42,7 +111,9 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
   PetscMPIInt rank, size;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
-  M->lattice = build_lattice(deck);
+  require_memory(comm, deck, -1);  // before the dense lattice tables are allocated
+  M->lattice = build_lattice(deck, &M->warnings);
+  require_memory(comm, deck, M->lattice.num_cells());
   M->copies = topology::build_vertex_copies(M->lattice);
   M->partition = topology::partition_lattice(M->lattice, M->copies, size, superblock);
   PetscCall(build_distributed_data(comm, deck, rank, M));

@@ -25,11 +25,13 @@ struct Model {
   Vec coordinates = nullptr;  // owned reference positions (bs 3)
   assembly::CellData cells;   // operator data of the local cells
   assembly::Boundary boundary;
+  std::vector<std::string> warnings;  // "file:line: warning: ..." found while building
 };
 
 /// Voxelizes the deck's geometry. Throws InputError (with the deck line) when the body
-/// is empty.
-lattice::Lattice build_lattice(const deck::Deck& deck);
+/// is empty, or when an image gives some filled cell a Young's modulus <= 0 or not
+/// finite. Appends warnings (NaN voxels under filled cells) to `warnings` when given.
+lattice::Lattice build_lattice(const deck::Deck& deck, std::vector<std::string>* warnings = nullptr);
 
 /// Builds the whole model on `comm`. `superblock` = cells per super-block side.
 PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model);

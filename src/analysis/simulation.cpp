@@ -38,9 +38,11 @@ class ScratchVec {
 
 Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
-  check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
+  // Option errors (an unknown type, a value that is not a number) are input errors.
+  parse_petsc_options(
+      [&] { check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver"); });
   if (uses_multigrid()) {
-    auto options = multigrid::read_options();
+    auto options = parse_petsc_options([] { return multigrid::read_options(); });
     // After cuts, coarse cells may be wider than the pieces (rods, slivers): their coarse
     // spaces approximate bending poorly, and a W-cycle solves those levels better. For
     // static solves that pays (32^3 cube cut into 16 rods, 4 levels: 11 CG iterations

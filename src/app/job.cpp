@@ -5,7 +5,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
+#include <set>
 #include <sstream>
 
 #include "analysis/cutting.hpp"
@@ -13,8 +15,12 @@
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
 #include "analysis/simulation.hpp"
+#include "app/options.hpp"
+#include "app/result_files.hpp"
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
+#include "deck/compare.hpp"
+#include "output/h5_file.hpp"
 #include "solve/linear_solver.hpp"
 
 namespace hexcut::app {
@@ -56,6 +62,101 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
   for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", analysis::describe(p).c_str());
 }
 
+
+/// hexcut's options and the names of the options the user set (command line and the
+/// deck's petsc_options), read before hexcut adds its solver defaults.
+struct OptionSetup {
+  HexcutOptions hexcut;
+  std::set<std::string> user_options;
+};
+
+OptionSetup setup_options(const deck::Deck& deck) {
+  OptionSetup o;
+  check_petsc(solve::insert_deck_options(deck.solver), "insert_deck_options");
+  o.user_options = options_in_database();
+  o.hexcut = read_hexcut_options();
+  check_petsc(solve::set_default_options(deck.solver), "set_default_options");
+  return o;
+}
+
+/// Warnings of the deck and of the model build, once (rank 0, stderr).
+void print_warnings(MPI_Comm comm, const deck::Deck& deck, const analysis::Model& model) {
+  for (const auto* list : {&deck.warnings, &model.warnings})
+    for (const auto& w : *list) PetscFPrintf(comm, PETSC_STDERR, "%s\n", w.c_str());
+}
+
+/// --restart: the checkpoint must come from the same physics. Compares the deck stored
+/// in the result file with this deck (deck::physics_differences) and the file's reference
+/// mesh with this model's lattice (lattice spacing, origin, dims; every cell's lattice
+/// index, material and Young's modulus, which also catches a changed mesh or image
+/// file). Throws InputError naming what differs. Collective.
+void require_same_physics(MPI_Comm comm, const deck::Deck& deck, const analysis::Model& model,
+                          const std::string& path) {
+  auto f = output::H5File::open(path, comm, output::H5File::Access::kReadOnly);
+  std::vector<std::string> diffs;
+  if (f.exists("/input/deck")) {
+    diffs = deck::physics_differences(f.read_string_dataset("/input/deck"), deck.text);
+  } else {
+    diffs.push_back("(the file stores no deck)");
+  }
+  const auto& L = model.lattice;
+  const auto dims = f.read_attribute_int64s("/mesh", "lattice_dims");
+  const auto origin = f.read_attribute_doubles("/mesh", "lattice_origin");
+  const bool same_lattice = f.read_attribute_double("/mesh", "lattice_h") == L.spec.h &&
+                            dims.size() == 3 && origin.size() == 3 &&
+                            dims[0] == L.spec.dims[0] && dims[1] == L.spec.dims[1] &&
+                            dims[2] == L.spec.dims[2] && origin[0] == L.spec.origin[0] &&
+                            origin[1] == L.spec.origin[1] && origin[2] == L.spec.origin[2];
+  const auto n = f.read_attribute_int64("/mesh", "num_cells");
+  if (!same_lattice) {
+    diffs.push_back("the lattice (h, origin or dims)");
+  } else if (n != L.num_cells()) {
+    diffs.push_back("the body (" + std::to_string(n) + " cells in the file, " +
+                    std::to_string(L.num_cells()) + " now)");
+  } else {
+    // Each rank compares an even slab of the cell tables with its copy of the lattice.
+    int rank, size;
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+    const std::int64_t lo = n * rank / size, rows = n * (rank + 1) / size - lo;
+    std::vector<std::int32_t> ijk(3 * rows), material(rows);
+    std::vector<double> youngs(rows);
+    f.read_rows("/mesh/cell_lattice_index", n, 3, lo, rows, ijk.data());
+    f.read_rows("/mesh/cell_material", n, 0, lo, rows, material.data());
+    f.read_rows("/mesh/cell_youngs_modulus", n, 0, lo, rows, youngs.data());
+    int mismatch[2] = {0, 0};  // body, material or E
+    for (std::int64_t i = 0; i < rows; ++i) {
+      const auto c = lo + i;
+      for (int d = 0; d < 3; ++d) mismatch[0] |= ijk[3 * i + d] != L.ijk[c][d];
+      mismatch[1] |= material[i] != L.material[c] || youngs[i] != L.youngs[c];
+    }
+    MPI_Allreduce(MPI_IN_PLACE, mismatch, 2, MPI_INT, MPI_LOR, comm);
+    if (mismatch[0]) diffs.push_back("the body (which cells are filled)");
+    if (mismatch[1]) diffs.push_back("the cells' materials or Young's moduli");
+  }
+  f.close();
+  if (diffs.empty()) return;
+  std::string list;
+  for (std::size_t i = 0; i < diffs.size() && i < 12; ++i) list += "\n  " + diffs[i];
+  if (diffs.size() > 12) list += "\n  ... (" + std::to_string(diffs.size() - 12) + " more)";
+  throw InputError(deck.path + ":1: --restart " + path +
+                   ": this deck's physics differs from the run that wrote the checkpoint "
+                   "(solver and output settings and the end time may change, nothing else):" +
+                   list);
+}
+
+/// Static analyses: every cut acts on the undeformed body before the solve, and every
+/// piece must then be held by the supports (analysis::require_rigid_support).
+void prepare_static(MPI_Comm comm, const deck::Deck& deck, analysis::Cutter& cutter,
+                    analysis::Model* model, analysis::State* state,
+                    const std::function<void()>& follow_topology) {
+  const auto r = analysis::apply_due_cuts(comm, deck, cutter,
+                                          std::numeric_limits<double>::infinity(), model, state);
+  if (r.links > 0) follow_topology();
+  print_cut_report(comm, *model, r, 0.0);
+  analysis::require_supported(analysis::find_pieces(comm, *model));
+}
+
 }  // namespace
 
 deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
@@ -79,52 +180,60 @@ deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
   return deck::parse_deck(text, path);
 }
 
-void check_job(MPI_Comm comm, const deck::Deck& deck) {
-  analysis::Model model;
-  check_petsc(analysis::build_model(comm, deck, 8, &model), "build_model");
-  PetscPrintf(comm, "%s: deck is valid: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
+void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
+  namespace an = analysis;
+  const auto options = setup_options(deck);
+  an::Model model;
+  check_petsc(an::build_model(comm, deck, options.hexcut.superblock, &model), "build_model");
+  print_warnings(comm, deck, model);
+  PetscPrintf(comm, "%s: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
               int(model.lattice.num_cells()), 3 * int(model.copies.num_copies),
               int(model.boundary.constraints.global_count));
-  check_petsc(analysis::destroy_model(&model), "destroy_model");
+  an::State state;
+  check_petsc(an::create_state(model.dm, &state), "create_state");
+  if (deck.analysis.type == deck::Analysis::Type::static_) {
+    an::Cutter cutter(deck, model.lattice);
+    prepare_static(comm, deck, cutter, &model, &state, [] {});
+  } else if (!deck.cuts.empty()) {
+    PetscPrintf(comm, "%s: %d cut(s) act during the run (not checked here: they depend on "
+                      "the motion)\n", deck.path.c_str(), int(deck.cuts.size()));
+  }
+  // The solver as the run creates it: PETSc parses the options here.
+  { an::Simulation sim(comm, model, deck); }
+  PetscPrintf(comm, "%s: deck is valid\n", deck.path.c_str());
+  check_petsc(an::destroy_state(&state), "destroy_state");
+  check_petsc(an::destroy_model(&model), "destroy_model");
 }
 
-void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
+void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   namespace an = analysis;
   const auto& ev = an::events();
-  int rank;
-  MPI_Comm_rank(comm, &rank);
   PetscLogDouble t_start;
   PetscTime(&t_start);
-
-  PetscInt superblock = 8, max_steps = -1;
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_superblock", &superblock, nullptr),
-              "options");
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-hexcut_max_steps", &max_steps, nullptr),
-              "options");
-  if (superblock < 1 || (superblock & (superblock - 1)))
-    throw InputError("-hexcut_superblock must be a power of two, got " +
-                     std::to_string(superblock));
-  check_petsc(solve::set_default_options(deck.solver), "set_default_options");
+  // Before anything is written: the options, then the result file's lock and paths.
+  const auto options = setup_options(deck);
+  const std::int64_t max_steps = options.hexcut.max_steps;
+  const bool restart = !job.restart_path.empty();
+  const ResultLock lock(comm, restart ? job.restart_path : result_path(deck));
+  const ResultPaths paths = plan_result(comm, deck, job);
 
   an::Model model;
   PetscLogEventBegin(ev.setup, 0, 0, 0, 0);
-  check_petsc(an::build_model(comm, deck, int(superblock), &model), "build_model");
+  check_petsc(an::build_model(comm, deck, options.hexcut.superblock, &model), "build_model");
   PetscLogEventEnd(ev.setup, 0, 0, 0, 0);
+  print_warnings(comm, deck, model);
   PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",
               int(model.lattice.num_cells()), int(model.copies.num_copies),
               3 * int(model.copies.num_copies), int(model.boundary.constraints.global_count),
               model.layout.num_ranks);
+  if (restart) require_same_physics(comm, deck, model, paths.final_path);
+  if (paths.replaces)
+    PetscPrintf(comm, "hexcut: writing %s; it replaces %s when the run ends\n",
+                paths.write_path.c_str(), paths.final_path.c_str());
 
-  const bool restart = !options.restart_path.empty();
-  std::string path = options.restart_path;
-  if (!restart) {
-    if (rank == 0) std::filesystem::create_directories(deck.output.directory);
-    path = (std::filesystem::path(deck.output.directory) / (deck.output.name + ".h5")).string();
-  }
   const bool dynamic = deck.analysis.type == deck::Analysis::Type::dynamic;
   an::State state;
   check_petsc(an::create_state(model.dm, &state), "create_state");
-  an::ResultOutput out(comm, model, deck, path, options.command_line, restart);
   auto sim = std::make_unique<an::Simulation>(comm, model, deck);
   {
     KSPType ksp_type;
@@ -137,6 +246,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
   }
+  // The result file: created (mesh and input written) or, on restart, re-opened.
+  auto out = std::make_unique<an::ResultOutput>(comm, model, deck, paths.write_path,
+                                                job.command_line, restart);
   // Cuts (design.md §6). Static analyses apply every cut to the undeformed body before
   // solving; dynamic ones apply each when its time comes, in the deformed configuration.
   an::Cutter cutter(deck, model.lattice);
@@ -145,7 +257,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   auto follow_topology = [&] {
     sim.reset();
     sim = std::make_unique<an::Simulation>(comm, model, deck);
-    out.topology_changed();
+    out->topology_changed();
   };
   auto apply_cuts = [&](double t) {
     const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
@@ -156,28 +268,30 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     }
     print_cut_report(comm, model, r, t);
   };
-  if (!restart) apply_cuts(dynamic ? 0.0 : std::numeric_limits<double>::infinity());
-  if (!dynamic) an::require_supported(an::find_pieces(comm, model));
+  if (!restart && !dynamic) prepare_static(comm, deck, cutter, &model, &state, follow_topology);
+  if (!restart && dynamic) apply_cuts(0.0);
 
   const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;
   if (restart) {
     // A run that was cut: rebuild the cut topology from the checkpoint's links first.
-    const auto links = out.checkpoint_cut_links();
+    const auto links = out->checkpoint_cut_links();
     if (!links.empty()) {
       check_petsc(an::destroy_state(&state), "destroy_state");
       check_petsc(an::restore_cuts(comm, deck, links, &model), "restore_cuts");
       check_petsc(an::create_state(model.dm, &state), "create_state");
       follow_topology();
     }
-    out.read_checkpoint(&state);
+    out->read_checkpoint(&state);
     cutter.skip_due(state.time);
+    if (!dynamic) an::require_supported(an::find_pieces(comm, model));
     PetscPrintf(comm,
                 "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
-                path.c_str(), (long long)state.step, state.time, (long long)links.size());
+                paths.final_path.c_str(), (long long)state.step, state.time,
+                (long long)links.size());
   } else if (dynamic) {
     sim->initial_acceleration(state);
     PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-    out.write_step(state, sim->corotational());
+    out->write_step(state, sim->corotational());
     PetscLogEventEnd(ev.output, 0, 0, 0, 0);
   }
   const std::int64_t first_step = state.step;
@@ -190,7 +304,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
   obs.on_solve = [&](const an::State& s, const solve::SolveRecord& r) {
     last_its = r.iterations;
     last_res = r.residual;
-    out.record_solve(s.step, s.time, r);
+    out->record_solve(s.step, s.time, r);
   };
   bool stopped_early = false;
   obs.on_step = [&](const an::State& s) {
@@ -206,11 +320,11 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     const bool stop = max_steps > 0 && s.step - first_step >= max_steps && !last;
     if (last || stop || s.step % deck.output.every == 0) {
       PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-      out.write_step(s, sim->corotational());
+      out->write_step(s, sim->corotational());
       PetscLogEventEnd(ev.output, 0, 0, 0, 0);
     }
     const int ce = deck.output.checkpoint_every;
-    if (last || stop || (ce > 0 && s.step % ce == 0)) out.write_checkpoint(s);
+    if (last || stop || (ce > 0 && s.step % ce == 0)) out->write_checkpoint(s);
     if (stop) {
       stopped_early = true;
       throw std::logic_error("stop");  // unwinds the analysis loop; caught below
@@ -233,15 +347,30 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options) {
     if (!stopped_early) throw;
     PetscPrintf(
         comm, "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
-        (long long)max_steps, path.c_str());
+        (long long)max_steps, paths.final_path.c_str());
+  } catch (const SolverError&) {
+    // What was written stays: the earlier result, when this run was to replace it, is
+    // untouched, and this run's steps are in its own file.
+    warn_unused_options(comm, options.user_options);
+    if (paths.replaces)
+      PetscFPrintf(comm, PETSC_STDERR,
+                   "hexcut: %s is unchanged; the steps this run completed are in %s\n",
+                   paths.final_path.c_str(), paths.write_path.c_str());
+    throw;
   }
+  const std::string xmf = out->writer().xdmf_path();
+  out.reset();
+  sim.reset();
+  commit_result(comm, paths);
   PetscLogDouble t_end;
   PetscTime(&t_end);
   double peak = peak_memory_bytes(), total_peak = 0;
   MPI_Allreduce(&peak, &total_peak, 1, MPI_DOUBLE, MPI_SUM, comm);
   PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s, peak memory %.1f MiB over all ranks)\n",
-              out.path().c_str(), out.writer().xdmf_path().c_str(), t_end - t_start,
-              total_peak / (1024.0 * 1024.0));
+              paths.final_path.c_str(),
+              (paths.replaces ? output::xdmf_path_for(paths.final_path) : xmf).c_str(),
+              t_end - t_start, total_peak / (1024.0 * 1024.0));
+  warn_unused_options(comm, options.user_options);
   check_petsc(an::destroy_state(&state), "destroy_state");
   check_petsc(an::destroy_model(&model), "destroy_model");
 }

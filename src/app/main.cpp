@@ -1,11 +1,12 @@
 // hexcut: elastic bodies on voxel lattices, cut and solved with PETSc.
-//   hexcut DECK.yaml [--restart RESULT.h5] [PETSc options]
+//   hexcut DECK.yaml [--restart RESULT.h5 | --overwrite] [PETSc options]
 //   hexcut --check DECK.yaml
 //   hexcut --version
 // Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.
 #include <petscsys.h>
 
 #include <cstring>
+#include <new>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -17,12 +18,16 @@
 namespace {
 
 const char* kUsage =
-    "usage: hexcut DECK.yaml [--restart RESULT.h5] [PETSc options]\n"
-    "       hexcut --check DECK.yaml     validate the deck only\n"
+    "usage: hexcut DECK.yaml [--restart RESULT.h5 | --overwrite] [PETSc options]\n"
+    "       hexcut --check DECK.yaml     validate the deck (and options) only\n"
     "       hexcut --version\n"
+    "  --restart FILE   continue FILE (a result of the same deck) from its last checkpoint\n"
+    "  --overwrite      replace an existing result of the same name when this run ends\n"
+    "                   (same as output.overwrite: true; without it hexcut refuses)\n"
     "PETSc options on the command line override the deck's solver.petsc_options.\n"
     "hexcut options: -hexcut_superblock N (cells per partition block side, default 8),\n"
-    "                -hexcut_max_steps N (stop after N steps; continue with --restart)\n"
+    "                -hexcut_max_steps N (stop after N steps; continue with --restart),\n"
+    "                -hexcut_residual_history FILE (Krylov residuals of every solve)\n"
     "Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.\n"
     "See doc/user-guide.md for the deck reference.\n";
 
@@ -31,7 +36,7 @@ const char* kUsage =
 int main(int argc, char** argv) {
   // hexcut's own flags are taken out before PETSc sees the rest.
   std::string deck_path, restart;
-  bool check_only = false;
+  bool check_only = false, overwrite = false;
   std::vector<char*> petsc_args{argv[0]};
   std::string command_line;
   for (int i = 0; i < argc; ++i) command_line += (i ? " " : "") + std::string(argv[i]);
@@ -51,6 +56,13 @@ int main(int argc, char** argv) {
         return hexcut::kExitInvalidInput;
       }
       restart = argv[++i];
+    } else if (a == "--overwrite") {
+      overwrite = true;
+    } else if (a.rfind("--", 0) == 0) {
+      // PETSc's options start with one '-'; a '--' word is a mistyped hexcut flag, and
+      // ignoring it could start a fresh run over a partial result (--restrat FILE).
+      std::cerr << "hexcut: unknown argument '" << a << "'\n" << kUsage;
+      return hexcut::kExitInvalidInput;
     } else if (deck_path.empty() && a.size() > 0 && a[0] != '-') {
       deck_path = a;
     } else {
@@ -59,6 +71,14 @@ int main(int argc, char** argv) {
   }
   if (deck_path.empty()) {
     std::cerr << "hexcut: no deck given\n" << kUsage;
+    return hexcut::kExitInvalidInput;
+  }
+  if (check_only && (overwrite || !restart.empty())) {
+    std::cerr << "hexcut: --check writes nothing; it takes no --restart or --overwrite\n";
+    return hexcut::kExitInvalidInput;
+  }
+  if (overwrite && !restart.empty()) {
+    std::cerr << "hexcut: --restart continues a result in place; --overwrite does not apply\n";
     return hexcut::kExitInvalidInput;
   }
   petsc_args.push_back(nullptr);
@@ -71,11 +91,19 @@ int main(int argc, char** argv) {
   MPI_Comm_size(PETSC_COMM_WORLD, &size);
   try {
     const auto deck = hexcut::app::read_deck(PETSC_COMM_WORLD, deck_path);
+    hexcut::app::JobOptions options{restart, command_line, overwrite, check_only};
     if (check_only) {
-      hexcut::app::check_job(PETSC_COMM_WORLD, deck);
+      hexcut::app::check_job(PETSC_COMM_WORLD, deck, options);
     } else {
-      hexcut::app::run_job(PETSC_COMM_WORLD, deck, {restart, command_line});
+      hexcut::app::run_job(PETSC_COMM_WORLD, deck, options);
     }
+  } catch (const std::bad_alloc&) {
+    // Every rank holds the lattice description: one rank failing usually means all do.
+    std::cerr << "hexcut: out of memory (rank " << rank
+              << "): the job needs more memory than this machine has; see doc/user-guide.md, "
+                 "\"Memory\"\n";
+    if (size > 1) MPI_Abort(PETSC_COMM_WORLD, hexcut::kExitOther);
+    code = hexcut::kExitOther;
   } catch (const hexcut::InputError& e) {
     // Input errors are found identically on every rank; rank 0 reports.
     if (rank == 0) std::cerr << e.what() << "\n";

@@ -7,10 +7,37 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/errors.hpp"
+
 namespace hexcut {
 
 inline void check_petsc(PetscErrorCode ierr, const char* what) {
   if (ierr) throw std::runtime_error(std::string("PETSc error ") + std::to_string(int(ierr)) + " in " + what);
+}
+
+}  // namespace hexcut
+
+namespace hexcut {
+
+/// Runs `call`, a step that reads the user's PETSc options (solver types, numbers): an
+/// error there is a mistake in the input, so it becomes an InputError carrying PETSc's own
+/// message (exit 2) instead of PETSc's traceback (exit 1). `call` may use check_petsc.
+template <class F>
+decltype(auto) parse_petsc_options(F&& call) {
+  struct Quiet {  // PETSc's error handlers print; this one only returns the code
+    Quiet() { PetscPushErrorHandler(PetscReturnErrorHandler, nullptr); }
+    ~Quiet() { PetscPopErrorHandler(); }
+  } quiet;
+  try {
+    return call();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    char* specific = nullptr;
+    PetscErrorMessage(0, nullptr, &specific);  // the message of the error that started it
+    throw InputError(std::string("invalid PETSc option: ") +
+                     (specific && *specific ? specific : e.what()));
+  }
 }
 
 }  // namespace hexcut

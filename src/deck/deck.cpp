@@ -5,9 +5,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -27,17 +31,90 @@ struct Context {
   fs::path dir;
   const std::vector<Material>* materials = nullptr;
   double h = 1.0;  // lattice cell size, sets default tolerances
+  std::vector<std::string>* warnings = nullptr;  // Deck::warnings
 
   int line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
   [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
     throw InputError(file, line(n), msg);
   }
   SourceLocation where(const YAML::Node& n) const { return {file, line(n)}; }
+  void warn(const YAML::Node& n, const std::string& msg) const {
+    if (warnings) warnings->push_back(where(n).prefix() + "warning: " + msg);
+  }
   std::string resolve(const std::string& p) const {
     fs::path path(p);
     return path.is_absolute() ? path.string() : (dir / path).lexically_normal().string();
   }
 };
+
+/// Throws at the first map key that occurs twice anywhere under `n`: YAML says keys are
+/// unique, but yaml-cpp keeps both and lookups silently return the first.
+void check_unique_keys(const Context& c, const YAML::Node& n) {
+  if (n.IsMap()) {
+    std::map<std::string, int> seen;  // key -> line of its first occurrence
+    for (const auto& kv : n) {
+      if (kv.first.IsScalar()) {
+        const auto [it, fresh] = seen.emplace(kv.first.Scalar(), c.line(kv.first));
+        if (!fresh)
+          c.fail(kv.first, "duplicate key '" + kv.first.Scalar() + "' (first given on line " +
+                               std::to_string(it->second) + ")");
+      }
+      check_unique_keys(c, kv.second);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& e : n) check_unique_keys(c, e);
+  }
+}
+
+/// Line (1-based) and column of the first byte of `text` that is not part of a valid
+/// UTF-8 sequence (overlong forms, surrogates and code points above U+10FFFF are
+/// invalid too), or line 0 when the whole text is valid.
+std::pair<int, int> first_invalid_utf8(const std::string& text) {
+  int line = 1, column = 1;
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char b = s[i];
+    int len = 0;
+    std::uint32_t cp = 0, min = 0;
+    if (b < 0x80) {
+      len = 1, cp = b;
+    } else if ((b & 0xE0) == 0xC0) {
+      len = 2, cp = b & 0x1F, min = 0x80;
+    } else if ((b & 0xF0) == 0xE0) {
+      len = 3, cp = b & 0x0F, min = 0x800;
+    } else if ((b & 0xF8) == 0xF0) {
+      len = 4, cp = b & 0x07, min = 0x10000;
+    } else {
+      return {line, column};
+    }
+    if (i + len > n) return {line, column};
+    for (int k = 1; k < len; ++k) {
+      if ((s[i + k] & 0xC0) != 0x80) return {line, column};
+      cp = (cp << 6) | (s[i + k] & 0x3F);
+    }
+    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return {line, column};
+    if (b == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+    i += len;
+  }
+  return {0, 0};
+}
+
+/// Input files named in the deck must be regular files: a directory "opens" as a stream
+/// on Linux and would fail later with a stream error instead of a deck error.
+void check_input_file(const Context& c, const YAML::Node& n, const std::string& path,
+                      const std::string& what) {
+  std::error_code ec;
+  const auto st = fs::status(path, ec);
+  if (!fs::exists(st)) c.fail(n, what + " '" + path + "' does not exist");
+  if (fs::is_directory(st)) c.fail(n, what + " '" + path + "' is a directory, not a file");
+  if (!fs::is_regular_file(st)) c.fail(n, what + " '" + path + "' is not a regular file");
+}
 
 void check_map(const Context& c, const YAML::Node& n, const std::string& what) {
   if (!n.IsMap()) c.fail(n, what + " must be a map");
@@ -114,6 +191,7 @@ geometry::TriangleMesh load_mesh_entry(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "mesh", {"file", "scale", "translate"});
   if (!n["file"]) c.fail(n, "mesh needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "mesh.file"));
+  check_input_file(c, n["file"], path, "mesh.file");
   geometry::TriangleMesh mesh;
   try {
     mesh = geometry::load_triangle_mesh(path);
@@ -243,6 +321,7 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
               "threshold", "labels", "material", "youngs_scale"});
   if (!n["file"]) c.fail(n, "image needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
+  check_input_file(c, n["file"], path, "image.file");
   const std::string format = n["format"] ? get_string(c, n["format"], "image.format") : "raw";
   Eigen::Vector3d origin =
       n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
@@ -273,6 +352,11 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
   GeometryStep s;
   s.where = c.where(n);
   s.image = image;
+  const auto nan_voxels = std::count_if(image->values.begin(), image->values.end(),
+                                        [](float v) { return std::isnan(v); });
+  if (nan_voxels > 0 && (n["labels"] || n["threshold"]))
+    c.warn(n["file"], std::to_string(nan_voxels) + " of " + std::to_string(image->values.size()) +
+                          " voxels are NaN: they count as empty (below any threshold, no label)");
   if (n["labels"]) {
     const auto& l = n["labels"];
     check_map(c, l, "image.labels");
@@ -617,9 +701,18 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
     if (n["steps"] && n["end_time"]) c.fail(n, "give either 'steps' or 'end_time', not both");
     if (n["steps"])
       a.steps = get_int(c, n["steps"], "analysis.steps");
-    else if (n["end_time"])
-      a.steps = int(std::llround(positive(c, n["end_time"], "analysis.end_time") / a.dt));
-    else
+    else if (n["end_time"]) {
+      const double steps = positive(c, n["end_time"], "analysis.end_time") / a.dt;
+      // The step counter is an int (and a run of 2^31 steps is a mistake, not a plan).
+      if (!(steps < double(std::numeric_limits<int>::max()) + 0.5)) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg,
+                      "end_time / dt = %.3g steps, more than the limit of %d (use a larger dt)",
+                      steps, std::numeric_limits<int>::max());
+        c.fail(n["end_time"], msg);
+      }
+      a.steps = int(std::llround(steps));
+    } else
       c.fail(n, "dynamic analysis needs 'steps' or 'end_time'");
     if (a.steps < 1) c.fail(n, "dynamic analysis needs at least one step");
     if (n["rayleigh"]) {
@@ -699,9 +792,14 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
       }
     } else if (p.IsMap()) {
       for (const auto& kv : p) {
-        std::string name = kv.first.as<std::string>();
+        std::string name = get_string(c, kv.first, "petsc_options name");
+        if (name.empty()) c.fail(kv.first, "petsc_options: empty option name");
         if (name[0] != '-') name = "-" + name;
-        s.petsc_options.push_back({name, kv.second.IsNull() ? "" : kv.second.as<std::string>()});
+        if (!kv.second.IsNull() && !kv.second.IsScalar())
+          c.fail(kv.second, "petsc_options: the value of '" + name +
+                                "' must be a single value (a number, word or \"\"), not a list "
+                                "or map");
+        s.petsc_options.push_back({name, kv.second.IsNull() ? "" : kv.second.Scalar()});
       }
     } else {
       c.fail(p, "petsc_options must be a string or a map");
@@ -710,15 +808,38 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
   return s;
 }
 
+/// The XDMF index refers to the HDF5 file as "NAME.h5:/path": a ':' (or XML, shell and
+/// non-ASCII characters) in NAME breaks some readers, so output names keep to the POSIX
+/// portable file name characters.
+/// `n`: the deck's output.name, or null for the default (the deck file's stem).
+void check_output_name(const Context& c, const YAML::Node* n, const std::string& name) {
+  const bool portable =
+      !name.empty() && name[0] != '-' && name[0] != '.' &&
+      std::all_of(name.begin(), name.end(), [](char ch) {
+        return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
+               ch == '.' || ch == '_' || ch == '-';
+      });
+  if (portable) return;
+  const std::string msg = "output.name '" + name +
+                          "' must be a plain file name of letters, digits, '.', '_' and '-' "
+                          "(not starting with '.' or '-'): the XDMF index cannot refer to other "
+                          "names reliably";
+  if (!n) throw InputError(c.file, 1, msg + "; the default is the deck file's name: give output.name");
+  c.fail(*n, msg);
+}
+
 Output parse_output(const Context& c, const YAML::Node& n) {
-  check_keys(c, n, "output", {"directory", "name", "every", "checkpoint_every", "fields"});
+  check_keys(c, n, "output",
+             {"directory", "name", "every", "checkpoint_every", "fields", "overwrite"});
   Output o;
+  o.where = c.where(n);
   if (n["directory"]) o.directory = get_string(c, n["directory"], "output.directory");
   if (n["name"]) {
-    o.name = get_string(c, n["name"], "output.name");
-    if (o.name.empty() || o.name.find('/') != std::string::npos)
-      c.fail(n["name"], "output.name must be a plain file name without '/'");
+    const YAML::Node node = n["name"];
+    o.name = get_string(c, node, "output.name");
+    check_output_name(c, &node, o.name);
   }
+  if (n["overwrite"]) o.overwrite = get_bool(c, n["overwrite"], "output.overwrite");
   if (n["every"]) {
     o.every = get_int(c, n["every"], "output.every");
     if (o.every < 1) c.fail(n["every"], "output.every must be >= 1");
@@ -820,17 +941,46 @@ const char* to_string(Solver::Type t) {
   return "?";
 }
 
+namespace {
+Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
+                    const std::string& path);
+}  // namespace
+
 Deck parse_deck(const std::string& text, const std::string& path) {
   Context c;
   c.file = path;
   c.dir = fs::path(path).parent_path();
-  YAML::Node root;
+  // The deck is stored verbatim in the result file (a UTF-8 string) and names from it go
+  // into XML indexes: both need valid UTF-8, which YAML requires anyway.
+  if (const auto [line, column] = first_invalid_utf8(text); line > 0)
+    throw InputError(path, line,
+                     "the deck is not valid UTF-8 (column " + std::to_string(column) +
+                         "): save it as UTF-8");
+  std::vector<YAML::Node> documents;
   try {
-    root = YAML::Load(text);
+    documents = YAML::LoadAll(text);
   } catch (const YAML::ParserException& e) {
     throw InputError(path, e.mark.line + 1, "YAML syntax error: " + e.msg);
   }
+  if (documents.size() > 1)
+    throw InputError(path, c.line(documents[1]) > 0 ? c.line(documents[1]) : 1,
+                     "the deck holds more than one YAML document ('---'); hexcut reads one "
+                     "deck per file");
+  const YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
   if (!root.IsMap()) throw InputError(path, 1, "the deck must be a YAML map of sections");
+  check_unique_keys(c, root);
+  try {
+    return parse_sections(c, root, text, path);
+  } catch (const YAML::Exception& e) {
+    // A conversion the checks above did not anticipate: still a deck error with its line.
+    throw InputError(path, e.mark.line >= 0 ? e.mark.line + 1 : 1, e.msg);
+  }
+}
+
+namespace {
+
+Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
+                    const std::string& path) {
   check_keys(
       c, root, "the deck",
       {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "solver", "output"});
@@ -841,7 +991,9 @@ Deck parse_deck(const std::string& text, const std::string& path) {
   Deck d;
   d.path = path;
   d.text = text;
+  c.warnings = &d.warnings;
   d.lattice = parse_lattice(c, root["lattice"]);
+  d.lattice_where = c.where(root["lattice"]);
   c.h = d.lattice.h;
   d.materials = parse_materials(c, root["materials"]);
   c.materials = &d.materials;
@@ -850,14 +1002,20 @@ Deck parse_deck(const std::string& text, const std::string& path) {
   if (root["cuts"]) d.cuts = parse_cuts(c, root["cuts"]);
   if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
   if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
+  d.output.where = {path, 1};
   if (root["output"]) d.output = parse_output(c, root["output"]);
-  if (d.output.name.empty()) d.output.name = fs::path(path).stem().string();
+  if (d.output.name.empty()) {
+    d.output.name = fs::path(path).stem().string();
+    check_output_name(c, nullptr, d.output.name);
+  }
   if (d.analysis.type == Analysis::Type::static_ && d.supports.empty())
     throw InputError(path, c.line(root),
                      "a static analysis needs supports (boundary.fixed); without them the "
                      "stiffness is singular");
   return d;
 }
+
+}  // namespace
 
 Deck load_deck(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

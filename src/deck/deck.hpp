@@ -116,6 +116,8 @@ struct Output {
   std::string name;          // default: deck file stem
   int every = 1;             // write every N steps (static: the final state is always written)
   int checkpoint_every = 0;  // 0 = only at the end
+  bool overwrite = false;    // replace an existing result when the run ends (result_files.hpp)
+  SourceLocation where;      // the output section (line 1 without one), for errors
   std::vector<std::string> fields{
       "displacement", "velocity",         "acceleration",         "stress", "von_mises",
       "pressure",     "principal_stress", "principal_directions", "surface"};
@@ -157,7 +159,11 @@ struct Cut {
 struct Deck {
   std::string path;
   std::string text;  // verbatim, stored in the output
+  /// "file:line: warning: ..." for input hexcut accepts but the user should know about
+  /// (e.g. NaN voxels in an image); the job prints them once.
+  std::vector<std::string> warnings;
   LatticeSpec lattice;
+  SourceLocation lattice_where;  // the lattice section, for errors found later
   std::vector<Material> materials;
   std::vector<GeometryStep> geometry;
   std::vector<Support> supports;

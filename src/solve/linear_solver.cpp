@@ -33,11 +33,17 @@ PetscErrorCode history_monitor(KSP, PetscInt it, PetscReal rnorm, void*) {
 
 }  // namespace
 
-PetscErrorCode set_default_options(const deck::Solver& s) {
+PetscErrorCode insert_deck_options(const deck::Solver& s) {
   PetscFunctionBeginUser;
-  // Deck passthrough first: the command line was parsed by PetscInitialize and wins.
+  // The command line was parsed by PetscInitialize and wins.
   for (const auto& [name, value] : s.petsc_options)
     PetscCall(set_if_unset(name.c_str(), value.empty() ? nullptr : value.c_str()));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode set_default_options(const deck::Solver& s) {
+  PetscFunctionBeginUser;
+  PetscCall(insert_deck_options(s));
   switch (s.type) {
     case deck::Solver::Type::cg_jacobi:
       PetscCall(set_if_unset("-ksp_type", "cg"));
@@ -167,6 +173,26 @@ SolveRecord solve(KSP ksp, Vec b, Vec x) {
     throw SolverError("linear solve failed: " + reason_string(r.reason) + " after " +
                       std::to_string(r.iterations) + " iterations (relative residual " +
                       std::to_string(r.residual) + ")");
+  // A converged Krylov method tests its recursively updated residual, which drifts from
+  // the true one when the system is singular (a piece free to move) or very badly
+  // conditioned (nu -> 0.5), and a direct solve tests nothing: the true residual decides.
+  // Fixed-cycle solves (gmg-cycles, no norm) are not checked: they promise no tolerance.
+  KSPNormType norm;
+  check_petsc(KSPGetNormType(ksp, &norm), "KSPGetNormType");
+  PetscReal rtol;
+  check_petsc(KSPGetTolerances(ksp, &rtol, nullptr, nullptr, nullptr), "KSPGetTolerances");
+  if (norm != KSP_NORM_NONE && r.residual > kTrueResidualFactor * rtol) {
+    char msg[400];
+    std::snprintf(msg, sizeof msg,
+                  "the solver reported convergence (%s, %d iterations), but the true relative "
+                  "residual ||b - Ax||/||b|| = %.3g is more than %g x rtol = %.3g: the result "
+                  "would be wrong. Causes: a body free to move (check the supports), or a "
+                  "nearly singular system (Poisson's ratio near 0.5, extreme stiffness "
+                  "contrasts); doc/user-guide.md, \"Exit codes\"",
+                  reason_string(r.reason).c_str(), int(r.iterations), r.residual,
+                  kTrueResidualFactor, kTrueResidualFactor * rtol);
+    throw SolverError(msg);
+  }
   return r;
 }
 

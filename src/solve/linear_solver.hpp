@@ -22,8 +22,12 @@ struct SolveRecord {
   KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
 };
 
-/// Puts the solver's defaults into the options database (unless already set): called
-/// once before any KSP is created.
+/// Puts the deck's solver.petsc_options into the options database, unless the command
+/// line set them already.
+PetscErrorCode insert_deck_options(const deck::Solver& solver);
+
+/// insert_deck_options, then the solver's defaults (unless already set): called once
+/// before any KSP is created.
 PetscErrorCode set_default_options(const deck::Solver& solver);
 
 /// Creates a KSP for the chosen solver over the DM's layout. `coordinates` (owned
@@ -38,8 +42,14 @@ PetscErrorCode attach_residual_history(KSP ksp);
 /// Sets the operator (re-used pattern) and the near-null space from coordinates.
 PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coordinates);
 
+/// How far the true relative residual ||b - A x||/||b|| of a converged solve may exceed
+/// the requested rtol before the solve counts as failed (doc/user-guide.md).
+constexpr double kTrueResidualFactor = 10.0;
+
 /// Solves A x = b (x holds the initial guess; nonzero guesses are used) and records
-/// what happened. Throws SolverError if the solve diverged or did not converge.
+/// what happened. Throws SolverError if the solve diverged or did not converge, or when
+/// its true relative residual exceeds kTrueResidualFactor x rtol (except for solves
+/// without a norm, gmg-cycles).
 SolveRecord solve(KSP ksp, Vec b, Vec x);
 
 std::string reason_string(KSPConvergedReason reason);

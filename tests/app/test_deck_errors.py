@@ -40,7 +40,30 @@ CASES = [
     ("bad solver", "type: direct", "type: superlu", 12, "solver.type must be one of"),
     ("YAML syntax", "dims: [10, 2, 2]}", "dims: [10, 2, 2]", 2, "YAML syntax error"),
     ("missing mesh file", "add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}", "add: {mesh: {file: nowhere.obj}}", 5,
-     "cannot load mesh"),
+     "nowhere.obj' does not exist"),
+    ("mesh file is a directory", "add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}", "add: {mesh: {file: .}}", 5,
+     "is a directory, not a file"),
+    ("image file is a directory", "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
+     "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}\n  - image: {file: ., dims: [1, 1, 1], dtype: uint8, "
+     "spacing: [1, 1, 1], youngs_scale: 1}", 6, "is a directory, not a file"),
+    ("duplicate key in a map", "h: 0.1, dims", "h: 0.1, h: 0.2, dims", 1, "duplicate key 'h' (first given on line 1)"),
+    ("duplicate section", "solver: {type: direct}", "solver: {type: direct}\nsolver: {type: gmg}", 13,
+     "duplicate key 'solver' (first given on line 12)"),
+    ("second YAML document", "solver: {type: direct}", "solver: {type: direct}\n---\nsolver: {type: gmg}", 14,
+     "more than one YAML document"),
+    ("petsc_options value is a list", "solver: {type: direct}", "solver: {type: direct, petsc_options: {ksp_type: [cg]}}",
+     12, "the value of '-ksp_type' must be a single value"),
+    ("petsc_options key is a map", "solver: {type: direct}", "solver: {type: direct, petsc_options: {{a: 1}: 2}}",
+     12, "petsc_options name must be a string"),
+    ("output name with a colon", "solver: {type: direct}", 'solver: {type: direct}\noutput: {name: "job_12:30"}', 13,
+     "output.name 'job_12:30' must be a plain file name"),
+    ("output name with a space", "solver: {type: direct}", 'solver: {type: direct}\noutput: {name: "my run"}', 13,
+     "must be a plain file name"),
+    ("step count overflows", "solver: {type: direct}",
+     "analysis: {type: dynamic, dt: 2.0e-10, end_time: 1.0}\nsolver: {type: direct}", 12,
+     "end_time / dt = 5e+09 steps, more than the limit of 2147483647"),
+    ("steps beyond int", "solver: {type: direct}", "analysis: {type: dynamic, dt: 0.1, steps: 3000000000}\nsolver: {type: direct}",
+     12, "analysis.steps must be an integer"),
     ("dynamic without dt", "solver: {type: direct}", "analysis: {type: dynamic, steps: 3}\nsolver: {type: direct}", 12,
      "dynamic analysis needs 'dt'"),
 ]
@@ -60,6 +83,33 @@ def main():
         rc, out, err = run(["--check", path])
         expected_prefix = f"{path}:{line}: "
         check(rc == 2 and expected_prefix in err and message in err, f"{name}: exit {rc}: {err.strip()}")
+    # Errors found after parsing, with their own decks or options.
+    big = write(d, "big.yaml", GOOD.replace("dims: [10, 2, 2]", "dims: [2000, 1000, 999]"))
+    rc, out, err = run(["--check", big, "-hexcut_memory_available", "16"])
+    check(rc == 2 and f"{big}:1: the lattice of 1998000000 cells needs about 26.1 GiB per rank" in err,
+          f"a lattice too large for the memory is refused before voxelization: exit {rc}: {err.strip()}")
+    solid = write(d, "solid.yaml", GOOD.replace("h: 0.1, dims: [10, 2, 2]", "h: 0.025, dims: [40, 8, 8]"))
+    rc, out, err = run(["--check", solid, "-hexcut_memory_available", "0.1"])
+    check(rc == 2 and f"{solid}:1: this job (2560 cells, solver direct, 1 rank(s)) needs about" in err,
+          f"a job too large for the memory is refused after voxelization: exit {rc}: {err.strip()}")
+    for args, message in [(["-ksp_type", "nosuchtype"], "invalid PETSc option: Unable to find requested KSP type nosuchtype"),
+                          (["-ksp_type", "cg", "-ksp_rtol", "abc"], "invalid PETSc option: Input string abc has no numeric value"),
+                          (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB")]:
+        rc, out, err = run(["--check", good, *args])
+        check(rc == 2 and message in err and "PETSC ERROR" not in err,
+              f"--check {' '.join(args)}: exit {rc}: {err.strip()}")
+    # The deck must be UTF-8 (it is stored in the result file and names reach XML).
+    raw = GOOD.encode() + b"# caf\xe9 au lait\n"
+    with open(f"{d}/latin1.yaml", "wb") as f:
+        f.write(raw)
+    rc, out, err = run(["--check", f"{d}/latin1.yaml"])
+    check(rc == 2 and f"{d}/latin1.yaml:13: the deck is not valid UTF-8 (column 6)" in err,
+          f"non-UTF-8 bytes in a comment: exit {rc}: {err.strip()}")
+    # A default output name (the deck's stem) that the index cannot refer to.
+    colon = write(d, "job_12:30.yaml", GOOD)
+    rc, out, err = run(["--check", colon])
+    check(rc == 2 and "give output.name" in err, f"deck file name with ':' and no output.name: exit {rc}: {err.strip()}")
+
     # A solve that cannot converge: exit 3, the steps written before stay readable.
     dyn = GOOD.replace("solver: {type: direct}",
                        "analysis: {type: dynamic, dt: 1.0e-4, steps: 5}\n"

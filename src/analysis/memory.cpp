@@ -1,0 +1,140 @@
+#include "analysis/memory.hpp"
+
+#include <petscsys.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "common/errors.hpp"
+
+namespace hexcut::analysis {
+namespace {
+
+constexpr double kLibraries = 45e6;       // PETSc, MPI, HDF5 after initialization [B]
+constexpr double kPerLatticeCell = 14.0;  // dense material grid + cell index + position index
+constexpr double kPerImageCell = 8.0;     // dense Young's modulus grid of an image
+constexpr double kReplicatedPerCell = 300.0;  // cells, links, vertex copies, partition
+
+/// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner).
+double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells) {
+  switch (s.type) {
+    case deck::Solver::Type::gmg:
+    case deck::Solver::Type::gmg_cycles:
+      return 1.8e3;
+    case deck::Solver::Type::cg_jacobi:
+      return 3.7e3;
+    case deck::Solver::Type::hypre:
+    case deck::Solver::Type::gamg:
+      return 9.5e3;
+    case deck::Solver::Type::direct:
+      // Nested-dissection fill of a 3-D grid grows like n^(4/3): per cell like n^(1/3);
+      // measured at 4096 and 13824 cells the exponent was nearer 1/4.
+      return 28e3 * std::pow(std::max(1.0, double(cells) / 4096.0), 0.25);
+  }
+  return 9.5e3;
+}
+
+double gib(double bytes) { return bytes / (1024.0 * 1024.0 * 1024.0); }
+
+/// A number from /proc/meminfo [bytes], or 0.
+double meminfo(const std::string& key) {
+  std::ifstream in("/proc/meminfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(key + ":", 0) == 0) return 1024.0 * std::stod(line.substr(key.size() + 1));
+  return 0.0;
+}
+
+/// The cgroup (v2) memory limit minus what the cgroup uses [bytes], or 0 when unlimited.
+double cgroup_room() {
+  std::ifstream max("/sys/fs/cgroup/memory.max"), current("/sys/fs/cgroup/memory.current");
+  std::string limit;
+  double used = 0;
+  if (!(max >> limit) || limit == "max" || !(current >> used)) return 0.0;
+  return std::max(0.0, std::stod(limit) - used);
+}
+
+}  // namespace
+
+double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cells,
+                               std::int64_t material_cells, int ranks) {
+  bool image_youngs = false;
+  for (const auto& g : deck.geometry)
+    image_youngs |= g.kind == deck::GeometryStep::Kind::image_youngs;
+  double bytes = kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) *
+                                  double(lattice_cells);
+  if (material_cells > 0)
+    bytes += kReplicatedPerCell * double(material_cells) +
+             solver_bytes_per_cell(deck.solver, material_cells) * double(material_cells) /
+                 double(std::max(ranks, 1));
+  return bytes;
+}
+
+double available_bytes_on_node() {
+  char buf[64] = "";
+  PetscBool set = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, "-hexcut_memory_available", buf, sizeof buf, &set);
+  if (set) {
+    char* end = nullptr;
+    const double g = std::strtod(buf, &end);
+    if (*buf == '\0' || *end != '\0' || !(g >= 0))
+      throw InputError(std::string("-hexcut_memory_available must be a number of GiB >= 0, got '") +
+                       buf + "'");
+    return g * 1024.0 * 1024.0 * 1024.0;
+  }
+  double avail = meminfo("MemAvailable");
+  if (const double room = cgroup_room(); room > 0) avail = avail > 0 ? std::min(avail, room) : room;
+  return avail;
+}
+
+void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells) {
+  int size, node_size, node_rank;
+  MPI_Comm_size(comm, &size);
+  MPI_Comm node;
+  MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+  MPI_Comm_size(node, &node_size);
+  MPI_Comm_rank(node, &node_rank);
+  MPI_Comm_free(&node);
+  const double per_rank =
+      estimate_bytes_per_rank(deck, deck.lattice.num_cells(), material_cells, size);
+  // Each node's first rank compares its node's need with what the node has.
+  double worst[3] = {0.0, 0.0, 0.0};  // need / available, need, available
+  if (node_rank == 0) {
+    const double avail = available_bytes_on_node();
+    const double need = per_rank * node_size;
+    if (avail > 0) worst[0] = need / avail, worst[1] = need, worst[2] = avail;
+  }
+  struct {
+    double ratio;
+    int rank;
+  } mine{worst[0], 0}, max;
+  MPI_Comm_rank(comm, &mine.rank);
+  MPI_Allreduce(&mine, &max, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm);
+  MPI_Bcast(worst, 3, MPI_DOUBLE, max.rank, comm);
+  if (max.ratio <= 1.0) return;
+  char msg[600];
+  if (material_cells < 0)
+    std::snprintf(msg, sizeof msg,
+                  "the lattice of %lld cells needs about %.1f GiB per rank before the body is "
+                  "even voxelized (every rank holds the lattice), %.1f GiB on a node with %d "
+                  "rank(s) that has %.1f GiB available: use a coarser h or a smaller lattice "
+                  "(doc/user-guide.md, \"Memory\"; -hexcut_memory_available GiB overrides what "
+                  "hexcut assumes the node has, 0 skips this check)",
+                  (long long)deck.lattice.num_cells(), gib(per_rank), gib(worst[1]),
+                  int(worst[1] / per_rank + 0.5), gib(worst[2]));
+  else
+    std::snprintf(msg, sizeof msg,
+                  "this job (%lld cells, solver %s, %d rank(s)) needs about %.1f GiB per rank, "
+                  "%.1f GiB on a node with %d rank(s) that has %.1f GiB available: use more "
+                  "nodes, a leaner solver (gmg) or a coarser h (doc/user-guide.md, \"Memory\"; "
+                  "-hexcut_memory_available GiB overrides what hexcut assumes the node has, 0 "
+                  "skips this check)",
+                  (long long)material_cells, deck::to_string(deck.solver.type), size,
+                  gib(per_rank), gib(worst[1]), int(worst[1] / per_rank + 0.5), gib(worst[2]));
+  throw InputError((material_cells < 0 ? deck.lattice_where.prefix() : deck.path + ":1: ") + msg);
+}
+
+}  // namespace hexcut::analysis

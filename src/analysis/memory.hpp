@@ -1,0 +1,35 @@
+// The memory a job needs, estimated before it allocates, so that a job too large for the
+// machine stops at once with the estimate (exit 2) instead of dying of std::bad_alloc
+// minutes later (doc/user-guide.md, "Memory").
+#pragma once
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <string>
+
+#include "deck/deck.hpp"
+
+namespace hexcut::analysis {
+
+/// Bytes one rank needs for a job of `lattice_cells` lattice cells of which
+/// `material_cells` are filled, on `ranks` ranks. Every rank holds the lattice
+/// description (14 B per lattice cell, +8 B when an image sets Young's moduli, ~300 B
+/// per filled cell); the operator, vectors and solver are shared out (per filled cell:
+/// gmg 1.8 kB, cg-jacobi 3.7 kB, hypre and gamg 9.5 kB, direct 28 kB x (cells/4096)^(1/4)
+/// for the fill of the Cholesky factor); 45 MB for the libraries. The figures were
+/// measured (peak resident memory of hexcut runs on solid boxes, doc/user-guide.md);
+/// they are good to about 30% for solid bodies.
+double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cells,
+                               std::int64_t material_cells, int ranks);
+
+/// Memory this node can give the job [bytes]: MemAvailable of /proc/meminfo, capped by
+/// the cgroup's limit (batch systems), or -hexcut_memory_available GiB when given;
+/// 0 = unknown or check disabled (-hexcut_memory_available 0).
+double available_bytes_on_node();
+
+/// Throws InputError when the ranks on some node would need more than that node has:
+/// `material_cells` < 0 checks the lattice alone (before voxelization). Collective.
+void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells);
+
+}  // namespace hexcut::analysis
