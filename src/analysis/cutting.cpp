@@ -248,13 +248,20 @@ std::string free_rigid_modes(const Eigen::Matrix<double, 6, 6>& G, const Eigen::
     // Displacement t + w x (p - c)/scale: a rotation about the axis through
     // c + scale (w x t)/|w|^2 along w, or a translation along t when w = 0.
     const Eigen::Vector3d t = m.head<3>(), w = m.tail<3>();
+    // Directions with their largest component positive; +0.0 prints -0 as 0.
+    auto oriented = [](Eigen::Vector3d a) {
+      Eigen::Index i;
+      a.cwiseAbs().maxCoeff(&i);
+      return Eigen::Vector3d((a[i] < 0 ? -a : a).array() + 0.0);
+    };
     char buf[200];
     if (w.norm() < 1e-6) {
-      const Eigen::Vector3d a = t.normalized();
+      const Eigen::Vector3d a = oriented(t.normalized());
       std::snprintf(buf, sizeof buf, "translation along (%.3g, %.3g, %.3g)", a.x(), a.y(), a.z());
     } else {
-      const Eigen::Vector3d a = w.normalized();
-      const Eigen::Vector3d p = box.center() + scale * w.cross(t) / w.squaredNorm();
+      const Eigen::Vector3d a = oriented(w.normalized());
+      const Eigen::Vector3d p =
+          (box.center() + scale * w.cross(t) / w.squaredNorm()).array() + 0.0;
       std::snprintf(buf, sizeof buf, "rotation about the axis through (%.4g, %.4g, %.4g) along (%.3g, %.3g, %.3g)",
                     p.x(), p.y(), p.z(), a.x(), a.y(), a.z());
     }

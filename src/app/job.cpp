@@ -246,18 +246,16 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
   }
-  // The result file: created (mesh and input written) or, on restart, re-opened.
-  auto out = std::make_unique<an::ResultOutput>(comm, model, deck, paths.write_path,
-                                                job.command_line, restart);
   // Cuts (design.md §6). Static analyses apply every cut to the undeformed body before
   // solving; dynamic ones apply each when its time comes, in the deformed configuration.
   an::Cutter cutter(deck, model.lattice);
+  std::unique_ptr<an::ResultOutput> out;
   // After the topology changed: a solver (and multigrid hierarchy) for the new DM, and
   // output tables for the new vertex copies.
   auto follow_topology = [&] {
     sim.reset();
     sim = std::make_unique<an::Simulation>(comm, model, deck);
-    out->topology_changed();
+    if (out) out->topology_changed();
   };
   auto apply_cuts = [&](double t) {
     const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
@@ -268,7 +266,11 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     }
     print_cut_report(comm, model, r, t);
   };
+  // A static body its supports do not hold stops here, before the result file exists.
   if (!restart && !dynamic) prepare_static(comm, deck, cutter, &model, &state, follow_topology);
+  // The result file: created (mesh and input written) or, on restart, re-opened.
+  out = std::make_unique<an::ResultOutput>(comm, model, deck, paths.write_path, job.command_line,
+                                           restart);
   if (!restart && dynamic) apply_cuts(0.0);
 
   const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;

@@ -1,0 +1,134 @@
+"""A converged result is a correct result, and every value that reaches the solver is
+checked:
+
+- a static body whose supports leave a rigid motion free stops with exit 3 naming the
+  piece and the free motions (before solving; --check says the same), whatever solver;
+- a solve that reports convergence while its true relative residual is far above rtol
+  (nearly incompressible material) fails with exit 3;
+- --check applies static cuts: a piece freed by a cut fails --check as it fails the run;
+- Young's moduli from an image that are <= 0 are an input error naming the image's line
+  and the number of cells; NaN voxels are reported as warnings with their count."""
+import os
+import struct
+import sys
+
+from cli_helpers import Checks, run, tempdir, write
+
+# The issue's roller case: a cube standing on its bottom face, held only in z there,
+# pushed sideways and down on its top.
+ROLLER = """\
+lattice: {h: H, bounds: [[0, 0, 0], [1, 1, 1]]}
+materials: {m: {E: 1.0e9, nu: 0.3, rho: 1000}}
+geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]
+boundary:
+  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}, components: [z]}]
+  traction: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}, value: [1.0e5, 0, 1.0e6]}]
+solver: {type: SOLVER}
+output: {directory: OUT}
+"""
+
+BAR = """\
+lattice: {h: 0.1, dims: [10, 2, 2]}
+materials:
+  m: {E: 1.0e9, nu: NU, rho: 1000}
+geometry:
+  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}
+boundary:
+  fixed:
+    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}
+  traction:
+    - where: {plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}
+      value: [0, 0, -1000.0]
+solver: {type: SOLVER, rtol: 1.0e-10}
+output: {directory: OUT}
+"""
+
+IMAGE = """\
+lattice: {h: 0.1, bounds: [[0, 0, 0], [0.2, 0.2, 0.4]]}
+materials: {bone: {E: 1.0e9, nu: 0.3, rho: 1000}}
+geometry:
+  - image: {file: FILE, dims: [2, 2, 4], dtype: float32, spacing: [0.1, 0.1, 0.1], threshold: -5, material: bone, youngs_scale: 1.0e9}
+boundary:
+  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}}]
+  traction: [{where: {plane: {point: [0, 0, 0.4], normal: [0, 0, 1]}}, value: [0, 0, 1.0e6]}]
+solver: {type: direct}
+output: {directory: OUT}
+"""
+
+
+def raw_image(path, values):
+    """float32 little endian, x fastest: 2 x 2 x 4 voxels, one value per z layer."""
+    with open(path, "wb") as f:
+        for layer in values:
+            f.write(struct.pack("<4f", *layer))
+
+
+def main():
+    d = tempdir()
+    check = Checks()
+
+    # Free rigid motions: translation in x and y and rotation about z are left free.
+    for solver, h in [("gmg", "0.1"), ("direct", "0.25"), ("hypre", "0.25")]:
+        deck = write(d, f"roller_{solver}.yaml", ROLLER.replace("H", h).replace("SOLVER", solver)
+                     .replace("OUT", f"{d}/{solver}"))
+        for args in ([deck], ["--check", deck]):
+            rc, out, err = run(args)
+            check(rc == 3 and "piece 1: " in err and "free: translation x, y; rotation about z" in err
+                  and not os.path.exists(f"{d}/{solver}/roller_{solver}.h5"),
+                  f"roller support, {solver}, {' '.join(args[:-1])}: exit {rc}: {err.strip()[-160:]}")
+    # Held in x along one edge as well: only the translation along that edge stays free.
+    deck = write(d, "roller_x.yaml", ROLLER.replace("H", "0.25").replace("SOLVER", "direct").replace("OUT", d)
+                 .replace("components: [z]}]", "components: [z]}, {where: {box: {min: [-0.01, -0.01, -0.01], "
+                          "max: [0.01, 1.01, 0.01]}}, components: [x]}]"))
+    rc, out, err = run(["--check", deck])
+    check(rc == 3 and err.strip().endswith("free: translation y"), f"roller plus an edge held in x: {err.strip()[-80:]}")
+    # Fully held: runs.
+    deck = write(d, "held.yaml", ROLLER.replace("H", "0.25").replace("SOLVER", "direct").replace("OUT", d)
+                 .replace(", components: [z]", ""))
+    rc, out, err = run([deck])
+    check(rc == 0, f"the same cube clamped at its base runs: exit {rc} {err.strip()}")
+
+    # Nearly incompressible: the solvers report convergence, the true residual disagrees.
+    for solver in ("gmg", "direct"):
+        ok = write(d, f"bar_{solver}.yaml", BAR.replace("NU", "0.3").replace("SOLVER", solver)
+                   .replace("OUT", f"{d}/ok_{solver}"))
+        rc, out, err = run([ok])
+        check(rc == 0, f"bar, nu = 0.3, {solver}: exit {rc} {err.strip()}")
+        bad = write(d, f"inc_{solver}.yaml", BAR.replace("NU", "0.499999").replace("SOLVER", solver)
+                    .replace("OUT", f"{d}/inc_{solver}"))
+        rc, out, err = run([bad])
+        check(rc == 3 and "true relative residual" in err and "Poisson's ratio near 0.5" in err,
+              f"bar, nu = 0.499999, rtol 1e-10, {solver}: exit {rc}: {err.strip()[-200:]}")
+
+    # --check applies static cuts: a cut that frees the tip fails --check like the run.
+    cut = write(d, "cut.yaml", BAR.replace("NU", "0.3").replace("SOLVER", "direct").replace("OUT", d)
+                + "cuts:\n  - blade: {polygon: [[0.55, -1, -1], [0.55, 1, -1], [0.55, 1, 1], [0.55, -1, 1]]}\n")
+    rc, out, err = run(["--check", cut])
+    check(rc == 3 and "piece 2: 16 cells, box [0.6, 0, 0] - [1, 0.2, 0.2] m, unsupported" in err and "unsupported" in err, f"--check with a freeing cut: exit {rc}: {err.strip()[-160:]}")
+
+    # Images: E <= 0 is an error at the image's line; NaN voxels are counted in warnings.
+    raw_image(f"{d}/ct.raw", [[1.0] * 4, [-1.0] * 4, [1.0] * 4, [1.0] * 4])
+    deck = write(d, "ct.yaml", IMAGE.replace("FILE", "ct.raw").replace("OUT", d))
+    rc, out, err = run([deck])
+    check(rc == 2 and f"{deck}:4: image: Young's modulus" in err and "in 4 filled cell(s)" in err
+          and "-1e+09 Pa" in err, f"negative E from an image: exit {rc}: {err.strip()}")
+    raw_image(f"{d}/inf.raw", [[1.0] * 4, [1.0] * 4, [float("inf"), 1.0, 1.0, 1.0], [1.0] * 4])
+    deck = write(d, "inf.yaml", IMAGE.replace("FILE", "inf.raw").replace("OUT", d))
+    rc, out, err = run(["--check", deck])
+    check(rc == 2 and "in 1 filled cell(s)" in err, f"infinite E from an image: exit {rc}: {err.strip()}")
+    raw_image(f"{d}/nan.raw", [[1.0] * 4, [float("nan"), 1.0, float("nan"), 1.0], [1.0] * 4, [1.0] * 4])
+    deck = write(d, "nan.yaml", IMAGE.replace("FILE", "nan.raw").replace("OUT", d))
+    rc, out, err = run(["--check", deck])
+    check(rc == 0 and f"{deck}:4: warning: 2 of 16 voxels are NaN: they count as empty" in err and "14 cells" in out,
+          f"NaN voxels of a thresholded image: exit {rc}: {err.strip()} {out.strip()}")
+    deck = write(d, "nan_youngs.yaml", IMAGE.replace("FILE", "nan.raw").replace("OUT", d)
+                 .replace("  - image", "  - add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}\n  - image")
+                 .replace("threshold: -5, material: bone, ", ""))
+    rc, out, err = run(["--check", deck])
+    check(rc == 0 and f"{deck}:5: warning: 2 filled cell(s) sample a NaN voxel of this image and keep their "
+          "material's E" in err, f"NaN voxels of a Young's modulus image: exit {rc}: {err.strip()}")
+    return check.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
