@@ -18,6 +18,7 @@
 #include "app/options.hpp"
 #include "app/result_files.hpp"
 #include "common/errors.hpp"
+#include "common/mpi_gather.hpp"
 #include "common/petsc_check.hpp"
 #include "deck/compare.hpp"
 #include "output/h5_file.hpp"
@@ -166,17 +167,17 @@ deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
   int ok = 1;
   if (rank == 0) {
     std::ifstream in(path, std::ios::binary);
-    if (!in) ok = 0;
+    // A directory opens as a stream on Linux; only regular files (or pipes) are decks.
+    if (!in || std::filesystem::is_directory(path)) ok = 0;
     std::ostringstream ss;
     ss << in.rdbuf();
     text = ss.str();
   }
   MPI_Bcast(&ok, 1, MPI_INT, 0, comm);
-  if (!ok) throw InputError(path + ": cannot open the deck file");
-  long n = long(text.size());
-  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
-  text.resize(n);
-  MPI_Bcast(text.data(), int(n), MPI_CHAR, 0, comm);
+  if (!ok)
+    throw InputError(path + ": cannot open the deck file" +
+                     (std::filesystem::is_directory(path) ? " (it is a directory)" : ""));
+  broadcast_string(comm, &text);
   return deck::parse_deck(text, path);
 }
 

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "common/errors.hpp"
+#include "common/mpi_gather.hpp"
 #include "output/result_writer.hpp"
 
 namespace hexcut::app {
@@ -33,10 +34,7 @@ void on_rank0_or_throw(MPI_Comm comm, F&& f) {
       error = e.what();
     }
   }
-  long n = long(error.size());
-  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
-  error.resize(std::size_t(n));
-  MPI_Bcast(error.data(), int(n), MPI_CHAR, 0, comm);
+  broadcast_string(comm, &error);
   if (!error.empty()) throw InputError(error);
 }
 
@@ -155,10 +153,7 @@ void commit_result(MPI_Comm comm, const ResultPaths& p) {
       error = e.what();
     }
   }
-  long n = long(error.size());
-  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
-  error.resize(std::size_t(n));
-  MPI_Bcast(error.data(), int(n), MPI_CHAR, 0, comm);
+  broadcast_string(comm, &error);
   if (!error.empty())
     throw std::runtime_error("could not replace " + p.final_path + " by " + p.write_path + ": " +
                              error);

@@ -1,10 +1,11 @@
 // Every rank's share of a table, concatenated in rank order, on every rank: for the
 // small replicated tables (cell centres at a cut, boundary Hermite data) that every rank
-// of hexcut keeps whole.
+// of hexcut keeps whole; and rank 0's string on every rank.
 #pragma once
 
 #include <mpi.h>
 
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -24,6 +25,14 @@ std::vector<T> allgather(MPI_Comm comm, const std::vector<T>& mine) {
   MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
                  comm);
   return all;
+}
+
+/// Rank 0's `text` on every rank (a deck, an error message that all ranks must act on).
+inline void broadcast_string(MPI_Comm comm, std::string* text) {
+  long n = long(text->size());
+  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
+  text->resize(std::size_t(n));
+  MPI_Bcast(text->data(), int(n), MPI_CHAR, 0, comm);
 }
 
 }  // namespace hexcut

@@ -9,6 +9,24 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OMPI_MCA_rmaps_base_oversubscribe="1")
 
 
+# A steel beam 1 m x 0.2 m x 0.2 m, clamped at x = 0, pulled down at its tip: the
+# smallest deck the CLI tests vary (its line numbers are used by test_deck_errors.py).
+BEAM = """\
+lattice: {h: 0.1, dims: [10, 2, 2]}
+materials:
+  steel: {E: 200.0e9, nu: 0.3, rho: 7800}
+geometry:
+  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}
+boundary:
+  fixed:
+    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}
+  traction:
+    - where: {plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}
+      value: [0, 0, -1000.0]
+solver: {type: direct}
+"""
+
+
 def run(args, ranks=1, cwd=None):
     cmd = ([*MPIEXEC, "-n", str(ranks)] if ranks > 1 else []) + [HEXCUT, *args]
     p = subprocess.run(cmd, cwd=cwd, env=ENV, capture_output=True, text=True, timeout=600)

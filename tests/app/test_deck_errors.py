@@ -5,22 +5,9 @@ import sys
 
 import h5py
 
-from cli_helpers import Checks, run, tempdir, write
+from cli_helpers import BEAM, Checks, run, tempdir, write
 
-GOOD = """\
-lattice: {h: 0.1, dims: [10, 2, 2]}
-materials:
-  steel: {E: 200.0e9, nu: 0.3, rho: 7800}
-geometry:
-  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}
-boundary:
-  fixed:
-    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}
-  traction:
-    - where: {plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}
-      value: [0, 0, -1000.0]
-solver: {type: direct}
-"""
+GOOD = BEAM
 
 # (description, text to replace, replacement, expected line, expected message part)
 CASES = [

@@ -16,23 +16,9 @@ import xml.etree.ElementTree as ET
 
 import h5py
 
-from cli_helpers import ENV, HEXCUT, Checks, run, tempdir, write
+from cli_helpers import BEAM, ENV, HEXCUT, Checks, run, tempdir, write
 
-STATIC = """\
-lattice: {h: 0.1, dims: [10, 2, 2]}
-materials:
-  steel: {E: 200.0e9, nu: 0.3, rho: 7800}
-geometry:
-  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}
-boundary:
-  fixed:
-    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}
-  traction:
-    - where: {plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}
-      value: [0, 0, -1000.0]
-solver: {type: cg-jacobi}
-output: {directory: OUT, name: beam}
-"""
+STATIC = BEAM.replace("type: direct", "type: cg-jacobi") + "output: {directory: OUT, name: beam}\n"
 
 CUTS = """\
 cuts:

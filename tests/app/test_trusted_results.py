@@ -12,7 +12,7 @@ import os
 import struct
 import sys
 
-from cli_helpers import Checks, run, tempdir, write
+from cli_helpers import BEAM, Checks, run, tempdir, write
 
 # The issue's roller case: a cube standing on its bottom face, held only in z there,
 # pushed sideways and down on its top.
@@ -27,21 +27,8 @@ solver: {type: SOLVER}
 output: {directory: OUT}
 """
 
-BAR = """\
-lattice: {h: 0.1, dims: [10, 2, 2]}
-materials:
-  m: {E: 1.0e9, nu: NU, rho: 1000}
-geometry:
-  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}
-boundary:
-  fixed:
-    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}
-  traction:
-    - where: {plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}
-      value: [0, 0, -1000.0]
-solver: {type: SOLVER, rtol: 1.0e-10}
-output: {directory: OUT}
-"""
+BAR = (BEAM.replace("steel: {E: 200.0e9, nu: 0.3, rho: 7800}", "m: {E: 1.0e9, nu: NU, rho: 1000}")
+       .replace("solver: {type: direct}", "solver: {type: SOLVER, rtol: 1.0e-10}") + "output: {directory: OUT}\n")
 
 IMAGE = """\
 lattice: {h: 0.1, bounds: [[0, 0, 0], [0.2, 0.2, 0.4]]}
