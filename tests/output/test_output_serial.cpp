@@ -638,8 +638,9 @@ TEST(OutputResultWriter, NamesTheIndexCannotReferToAreRefused) {
   // ':' separates file and dataset in XDMF ("job_12:30.h5" opened as "30.h5"); readers
   // strip surrounding spaces; control characters and non-UTF-8 bytes make the index
   // malformed XML; "x_surface.xmf" would be the surface index of "x".
-  for (const std::string name : {"job_12:30.h5", " run.h5", "run.h5 ", "a\tb.h5", "a\x01.h5",
-                                 "\xff\xfe.h5", "caf\xc3.h5", "\xed\xa0\x80.h5", "cut_surface.h5"}) {
+  for (const std::string name :
+       {"job_12:30.h5", " run.h5", "run.h5 ", "a\tb.h5", "a\x01.h5", "\xff\xfe.h5", "caf\xc3.h5",
+        "\xed\xa0\x80.h5", "cut_surface.h5"}) {
     const std::string path = (dir / name).string();
     EXPECT_THROW(ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""}),
                  std::invalid_argument)
