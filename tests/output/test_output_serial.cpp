@@ -465,6 +465,8 @@ TEST(OutputResultWriter, MeshPerTopologyVersionAndSurfaces) {
   write_indexes(path);
   EXPECT_EQ(read_text(dir / "run.xmf"), xmf);
   EXPECT_EQ(read_text(dir / "run_surface.xmf"), surfaces);
+  write_xdmf(path, (dir / "volume_only.xmf").string());  // the volume index alone
+  EXPECT_EQ(read_text(dir / "volume_only.xmf"), xmf);
 
   // Restart: open() continues with the mesh of the last complete step.
   ResultWriter w = ResultWriter::open(path, MPI_COMM_SELF);
