@@ -109,7 +109,8 @@ def check_trace(a, label):
     s, p = a["stress"], a["pressure"][:, 0]
     scale = max(np.abs(s).max(), 1e-300)
     worst = np.abs(s[:, 0] + s[:, 1] + s[:, 2] + 3.0 * p).max()
-    expect(worst <= 1e-12 * scale, f"{label}: max |trace + 3p| = {worst:.3e} (|stress| {scale:.3e})")
+    expect(worst <= 1e-12 * scale,
+           f"{label}: max |trace + 3p| = {worst:.3e} (|stress| {scale:.3e})")
     return worst
 
 
@@ -129,7 +130,8 @@ def check_invariants(a, label):
         d = a[f"principal_direction_{k + 1}"]
         expect(np.allclose(np.linalg.norm(d, axis=1), 1.0, atol=1e-12), f"{label}: |direction|")
         residual = np.einsum("nij,nj->ni", t, d) - lam[:, None] * d
-        expect(np.abs(residual).max() <= 1e-9 * scale, f"{label}: direction {k + 1} not an eigenvector")
+        expect(np.abs(residual).max() <= 1e-9 * scale,
+               f"{label}: direction {k + 1} not an eigenvector")
     return worst
 
 
@@ -236,11 +238,13 @@ def check_run(h5path, cut_time):
         for i, t in enumerate(times):
             label = f"{reader_label} {os.path.basename(volume)} t={t}"
             data = fetch(reader, t, label)
-            expect(data.GetNumberOfPoints() == points[i], f"{label}: {data.GetNumberOfPoints()} points")
+            expect(data.GetNumberOfPoints() == points[i],
+                   f"{label}: {data.GetNumberOfPoints()} points")
             expect(data.GetCellType(0) == VTK_HEXAHEDRON, f"{label}: not hexahedra")
             a = arrays(data)
             for name, want in fields[i].items():
-                expect(name in a and np.array_equal(a[name], want), f"{label}: {name} differs from the file")
+                expect(name in a and np.array_equal(a[name], want),
+                       f"{label}: {name} differs from the file")
             worst = max(worst, check_invariants(a, label))
             if i == len(times) - 1:
                 check_glyph(reader, t, a, label)
@@ -257,7 +261,8 @@ def check_run(h5path, cut_time):
 
         reader = make(surface)
         with_surface = [i for i, s in enumerate(surfaces) if s is not None and len(s["triangles"])]
-        expect(times_of(reader) == [times[i] for i in with_surface], f"{reader_label}: surface times")
+        expect(times_of(reader) == [times[i] for i in with_surface],
+               f"{reader_label}: surface times")
         for i in with_surface:
             label = f"{reader_label} {os.path.basename(surface)} t={times[i]}"
             data = fetch(reader, times[i], label)

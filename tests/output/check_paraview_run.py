@@ -53,7 +53,8 @@ def main():
         deck = write(d, "bar.yaml", DECK.replace("OUT", d))
         rc, out, err = run([deck], ranks=ranks, cwd=d)
         h5 = os.path.join(d, "bar.h5")
-        check(rc == 0 and "2 piece(s)" in out, f"the cut bar runs on {ranks} rank(s): {err.strip()}")
+        check(rc == 0 and "2 piece(s)" in out,
+              f"the cut bar runs on {ranks} rank(s): {err.strip()}")
         try:
             check_result_file.check_indexes(h5)
             check(True, f"{ranks} rank(s): both indexes parse and every file:dataset exists")

@@ -456,7 +456,8 @@ def check_cut_xdmf(h5path, steps):
     """The --cuts fixture's indexes: the generic checks, then what the fixture implies."""
     volume, surface = check_indexes(h5path)
     expect(surface is not None, "no surface index")
-    expect([c.get("Name") for c in volume.findall("Domain/Grid")] == ["hexcut"], "volume collection")
+    expect([c.get("Name") for c in volume.findall("Domain/Grid")] == ["hexcut"],
+           "volume collection")
     expect([c.get("Name") for c in surface.findall("Domain/Grid")] == ["hexcut_surface"],
            "surface collection")
     with h5py.File(h5path, "r") as f:
