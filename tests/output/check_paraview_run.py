@@ -14,6 +14,7 @@ the stress invariants, Glyph, the split mesh when asked for t = 0.1); the reader
 same index text for the 1-rank result.
 """
 import os
+import shutil
 import subprocess
 import sys
 
@@ -45,6 +46,7 @@ def read(path):
 
 def main():
     workdir, pvbatch = sys.argv[1], sys.argv[2]
+    shutil.rmtree(workdir, ignore_errors=True)  # hexcut does not replace a result
     check = Checks()
     results = []
     for ranks in (1, 2):
