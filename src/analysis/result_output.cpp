@@ -348,10 +348,23 @@ void ResultOutput::write_step(const State& s, bool corotational) {
     if (o.has_field("stress")) write_cell_values(s.step, "stress", 6, f.sigma, "Pa");
     if (o.has_field("von_mises")) write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa");
     if (o.has_field("pressure")) write_cell_values(s.step, "pressure", 1, f.pressure, "Pa");
-    if (o.has_field("principal_stress"))
-      write_cell_values(s.step, "principal_stress", 3, f.principal, "Pa");
-    if (o.has_field("principal_directions"))
-      write_cell_values(s.step, "principal_directions", 9, f.directions, "1");
+    // One dataset per principal value and direction (format version 2): scalars to colour
+    // by and vectors that ParaView's Glyph takes, where a (n, 3) or (n, 9) table reads as
+    // one vector or 9 unnamed components (doc/output-format.md).
+    const std::size_t n = f.von_mises.size();
+    std::vector<double> value(n), direction(3 * n);
+    for (int i = 0; i < 3; ++i) {
+      const std::string k = std::to_string(i + 1);
+      if (o.has_field("principal_stress")) {
+        for (std::size_t e = 0; e < n; ++e) value[e] = f.principal[3 * e + i];
+        write_cell_values(s.step, "principal_stress_" + k, 1, value, "Pa");
+      }
+      if (o.has_field("principal_directions")) {
+        for (std::size_t e = 0; e < n; ++e)
+          for (int d = 0; d < 3; ++d) direction[3 * e + d] = f.directions[9 * e + 3 * i + d];
+        write_cell_values(s.step, "principal_direction_" + k, 3, direction, "1");
+      }
+    }
   }
   writer_.end_step();
 }

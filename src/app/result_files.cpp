@@ -147,8 +147,8 @@ void commit_result(MPI_Comm comm, const ResultPaths& p) {
   if (rank == 0) {
     try {
       fs::rename(p.write_path, p.final_path);  // rename(2): atomic replace
-      output::write_xdmf(p.final_path, output::xdmf_path_for(p.final_path));
-      fs::remove(output::xdmf_path_for(p.write_path));
+      output::write_indexes(p.final_path);
+      for (const std::string& index : output::index_paths(p.write_path)) fs::remove(index);
     } catch (const std::exception& e) {
       error = e.what();
     }

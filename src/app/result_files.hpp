@@ -49,8 +49,8 @@ std::string result_path(const deck::Deck& deck);
 ResultPaths plan_result(MPI_Comm comm, const deck::Deck& deck, const JobOptions& options);
 
 /// After a successful run that replaces an earlier result: renames write_path over
-/// final_path (atomic within a file system), writes the XDMF index for the final name
-/// and removes the temporary one. No-op when paths.replaces is false. Collective.
+/// final_path (atomic within a file system), writes the XDMF indexes for the final name
+/// (output::write_indexes) and removes the temporary ones (output::index_paths). No-op when paths.replaces is false. Collective.
 void commit_result(MPI_Comm comm, const ResultPaths& paths);
 
 }  // namespace hexcut::app

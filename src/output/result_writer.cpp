@@ -18,7 +18,9 @@ namespace hexcut::output {
 namespace {
 
 constexpr const char* kFormatName = "hexcut-result";
-constexpr std::int64_t kFormatVersion = 1;
+constexpr std::int64_t kFormatVersion = 2;
+// The surface index is "<stem>_surface.xmf" beside the volume index "<stem>.xmf".
+constexpr const char* kSurfaceStemSuffix = "_surface";
 
 const char* const kHistoryColumns[] = {
     "step",          "time",          "iterations",      "residual_norm", "relative_residual",
@@ -82,9 +84,58 @@ void atomic_rename(const std::string& from, const std::string& to) {
   }
 }
 
+/// Why `text` cannot be written into an XML 1.0 document as character data ("" when it
+/// can): it must be valid UTF-8 (no overlong forms, surrogates or code points past
+/// U+10FFFF) without C0 control characters or DEL. Tab, line feed and carriage return
+/// are legal XML but are refused too: readers trim or normalize them.
+std::string xml_text_problem(const std::string& text) {
+  const auto* s = reinterpret_cast<const unsigned char*>(text.data());
+  const std::size_t n = text.size();
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = s[i];
+    if (c < 0x20 || c == 0x7f) return "a control character (byte " + std::to_string(c) + ")";
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    int len = 0;
+    std::uint32_t cp = 0, min = 0;
+    if ((c & 0xe0) == 0xc0) {
+      len = 2, cp = c & 0x1f, min = 0x80;
+    } else if ((c & 0xf0) == 0xe0) {
+      len = 3, cp = c & 0x0f, min = 0x800;
+    } else if ((c & 0xf8) == 0xf0) {
+      len = 4, cp = c & 0x07, min = 0x10000;
+    } else {
+      return "bytes that are not UTF-8";
+    }
+    if (i + len > n) return "bytes that are not UTF-8";
+    for (int k = 1; k < len; ++k) {
+      if ((s[i + k] & 0xc0) != 0x80) return "bytes that are not UTF-8";
+      cp = (cp << 6) | (s[i + k] & 0x3f);
+    }
+    if (cp < min || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff))
+      return "bytes that are not UTF-8";
+    i += len;
+  }
+  return "";
+}
+
+/// Why a dataset path cannot be referenced from an index ("" when it can): besides the
+/// XML rules, ':' separates the file from the dataset in a DataItem.
+std::string dataset_path_problem(const std::string& path) {
+  if (path.find(':') != std::string::npos) return "a ':'";
+  return xml_text_problem(path);
+}
+
 void validate_name(const std::string& name) {
   if (name.empty() || name.find('/') != std::string::npos || name == "." || name == "..")
     throw std::invalid_argument("output: bad field name '" + name + "'");
+  // The XDMF index names the attribute and refers to the dataset by its path.
+  const std::string problem = dataset_path_problem(name);
+  if (!problem.empty())
+    throw std::invalid_argument("output: field name '" + name + "' contains " + problem +
+                                ", which the XDMF index cannot carry");
 }
 
 void require(bool condition, const std::string& message) {
@@ -257,12 +308,30 @@ std::string xdmf_path_for(const std::string& h5_path) {
   return h5_path + ".xmf";
 }
 
+std::string surface_xdmf_path_for(const std::string& h5_path) {
+  const std::string volume = xdmf_path_for(h5_path);
+  return volume.substr(0, volume.size() - 4) + kSurfaceStemSuffix + ".xmf";
+}
+
+std::vector<std::string> index_paths(const std::string& h5_path) {
+  return {xdmf_path_for(h5_path), surface_xdmf_path_for(h5_path)};
+}
+
 // ------------------------------------------------------------------------------- XDMF
 namespace {
 
+/// The file part of a DataItem: the result file's basename, XML-escaped. ParaView 5.11's
+/// "XDMF Reader" (Xdmf2) drops a leading non-ASCII character of a relative file name
+/// ("été.h5" opens "té.h5"); "./" in front keeps it (all three readers resolve it
+/// relative to the index).
+std::string file_reference(const std::string& h5_basename) {
+  const bool ascii_first = static_cast<unsigned char>(h5_basename.at(0)) < 0x80;
+  return (ascii_first ? "" : "./") + xml_escape(h5_basename);
+}
+
 struct XdmfContext {
   H5File& file;
-  std::string h5_name;  // basename, XML-escaped
+  std::string h5_ref;  // file part of every DataItem (file_reference)
   std::ostringstream& out;
 };
 
@@ -275,15 +344,19 @@ void data_item(XdmfContext& x, const std::string& path, const std::string& inden
   std::string dims;
   for (std::size_t i = 0; i < d.size(); ++i) dims += (i ? " " : "") + std::to_string(d[i]);
   x.out << indent << "<DataItem Dimensions=\"" << dims << "\" NumberType=\"" << number_type
-        << "\" Precision=\"" << size << "\" Format=\"HDF\">" << x.h5_name << ":" << xml_escape(path)
+        << "\" Precision=\"" << size << "\" Format=\"HDF\">" << x.h5_ref << ":" << xml_escape(path)
         << "</DataItem>\n";
 }
 
+/// The XDMF AttributeType of a (rows,) or (rows, cols) table. Checked with ParaView 5.11
+/// (doc/output-format.md, "The XDMF indexes"): the Xdmf2 reader expands `Tensor6` to 9
+/// components assuming XDMF's order xx, xy, xz, yy, yz, zz, the Xdmf3 readers pass its 6
+/// components through unchanged (VTK reads them as xx, yy, zz, xy, yz, xz), so no order
+/// of a `Tensor6` is right in every reader. `Matrix` is passed through unchanged by all
+/// three, so a 6-column table (hexcut's stress, in VTK's order) is written as `Matrix`.
 const char* attribute_type(const std::vector<std::int64_t>& d) {
-  if (d.size() == 1) return "Scalar";
-  if (d.size() == 2 && d[1] == 1) return "Scalar";
+  if (d.size() == 1 || (d.size() == 2 && d[1] == 1)) return "Scalar";
   if (d.size() == 2 && d[1] == 3) return "Vector";
-  if (d.size() == 2 && d[1] == 6) return "Tensor6";
   if (d.size() == 2 && d[1] == 9) return "Tensor";
   return "Matrix";
 }
@@ -297,28 +370,39 @@ void attribute(XdmfContext& x, const std::string& name, const std::string& path,
   x.out << "        </Attribute>\n";
 }
 
-}  // namespace
+const char* const kIndexHeader =
+    "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+    "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+    "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
+    "  <Domain>\n";
+const char* const kIndexFooter = "    </Grid>\n  </Domain>\n</Xdmf>\n";
 
-void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
-  H5File file = H5File::open(h5_path, MPI_COMM_SELF, H5File::Access::kReadOnly);
-  std::ostringstream out;
-  XdmfContext x{file, xml_escape(basename_of(h5_path)), out};
-  out << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
-      << "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-      << "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
-      << "  <Domain>\n"
-      << "    <Grid Name=\"hexcut\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  std::vector<std::string> steps =
-      file.is_group("/steps") ? file.list("/steps") : std::vector<std::string>{};
-  std::vector<std::string> surfaces;  // complete steps with a non-empty surface
-  for (const std::string& name : steps) {
+/// The complete step groups of the file, in step order.
+std::vector<std::string> complete_steps(H5File& file) {
+  std::vector<std::string> steps;
+  if (!file.is_group("/steps")) return steps;
+  for (const std::string& name : file.list("/steps")) {
     const std::string group = "/steps/" + name;
-    if (!all_digits(name) || !file.is_group(group)) continue;
-    if (!is_complete(file, group)) continue;
+    if (all_digits(name) && file.is_group(group) && is_complete(file, group))
+      steps.push_back(group);
+  }
+  return steps;
+}
+
+/// The volume index: one Uniform grid per complete step.
+std::string volume_index(XdmfContext& x, const std::vector<std::string>& steps) {
+  H5File& file = x.file;
+  auto& out = x.out;
+  out.str("");
+  out << kIndexHeader
+      << "    <Grid Name=\"hexcut\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const std::string& group : steps) {
     const std::string mesh = mesh_of(file, group);
+    if (!dataset_path_problem(mesh).empty())
+      throw std::runtime_error("output: the mesh name of " + group + " cannot be indexed");
     const std::int64_t num_points = file.dims(mesh + "/points").at(0);
     const std::int64_t num_cells = file.dims(mesh + "/cells").at(0);
-    out << "      <Grid Name=\"step_" << name << "\" GridType=\"Uniform\">\n"
+    out << "      <Grid Name=\"step_" << basename_of(group) << "\" GridType=\"Uniform\">\n"
         << "        <Time Value=\"" << format_double(file.read_attribute_double(group, "time"))
         << "\"/>\n"
         << "        <Topology TopologyType=\"Hexahedron\" NumberOfElements=\"" << num_cells
@@ -334,71 +418,132 @@ void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
     }
     for (const std::string& field : file.list(group)) {
       const std::string path = group + "/" + field;
-      if (file.is_group(path)) continue;
+      // A name the index cannot carry (the writer refuses them; another program may have
+      // added one) and tables that do not fit the grid are left out: the index must
+      // stay readable.
+      if (file.is_group(path) || !dataset_path_problem(path).empty()) continue;
       auto cls = file.element_type(path).first;
       if (cls != "float" && cls != "int" && cls != "uint") continue;
+      const std::vector<std::int64_t> d = file.dims(path);
+      if (d.empty() || d.size() > 2) continue;
       std::string centering = file.has_attribute(path, "centering")
                                   ? file.read_attribute_string(path, "centering")
                                   : std::string();
-      if (centering.empty()) {
-        std::int64_t rows = file.dims(path).at(0);
-        centering = rows == num_points ? "point" : (rows == num_cells ? "cell" : "");
-      }
-      if (centering == "point") attribute(x, field, path, "Node");
-      if (centering == "cell") attribute(x, field, path, "Cell");
+      if (centering.empty())
+        centering = d[0] == num_points ? "point" : (d[0] == num_cells ? "cell" : "");
+      if (centering == "point" && d[0] == num_points) attribute(x, field, path, "Node");
+      if (centering == "cell" && d[0] == num_cells) attribute(x, field, path, "Cell");
     }
     out << "      </Grid>\n";
-    if (file.exists(group + "/surface/triangles") &&
-        file.dims(group + "/surface/triangles").at(0) > 0)
-      surfaces.push_back(name);
   }
-  out << "    </Grid>\n";
-  // The surfaces form a second temporal collection (omitted when no step has one), so the
-  // volume collection keeps its former structure. Both ParaView XDMF readers (Xdmf2
-  // vtkXdmfReader and Xdmf3) then give a two-block data set, and for a time at which a
-  // step has no surface they match no surface grid (exact time match) and leave that
-  // block empty instead of showing a stale surface. A spatial collection per step would
-  // change the block structure between steps with and without a surface.
-  if (!surfaces.empty()) {
-    out << "    <Grid Name=\"hexcut_surface\" GridType=\"Collection\" "
-           "CollectionType=\"Temporal\">\n";
-    for (const std::string& name : surfaces) {
-      const std::string group = "/steps/" + name;
-      const std::string base = group + "/surface";
-      out << "      <Grid Name=\"surface_" << name << "\" GridType=\"Uniform\">\n"
-          << "        <Time Value=\"" << format_double(file.read_attribute_double(group, "time"))
-          << "\"/>\n"
-          << "        <Topology TopologyType=\"Triangle\" NumberOfElements=\""
-          << file.dims(base + "/triangles").at(0) << "\">\n";
-      data_item(x, base + "/triangles", "          ");
-      out << "        </Topology>\n"
-          << "        <Geometry GeometryType=\"XYZ\">\n";
-      data_item(x, base + "/points", "          ");
-      out << "        </Geometry>\n";
-      attribute(x, "cut_id", base + "/cut_id", "Cell");
-      attribute(x, "owner_cell", base + "/owner_cell", "Node");
-      out << "      </Grid>\n";
-    }
-    out << "    </Grid>\n";
-  }
-  out << "  </Domain>\n</Xdmf>\n";
-  file.close();
+  out << kIndexFooter;
+  return out.str();
+}
 
-  const std::string tmp = xmf_path + ".tmp";
+/// The surface index: one Uniform grid per complete step with a non-empty surface; ""
+/// when there is none.
+std::string surface_index(XdmfContext& x, const std::vector<std::string>& steps) {
+  H5File& file = x.file;
+  auto& out = x.out;
+  out.str("");
+  out << kIndexHeader
+      << "    <Grid Name=\"hexcut_surface\" GridType=\"Collection\" "
+         "CollectionType=\"Temporal\">\n";
+  bool any = false;
+  for (const std::string& group : steps) {
+    const std::string base = group + "/surface";
+    if (!file.exists(base + "/triangles") || file.dims(base + "/triangles").at(0) == 0) continue;
+    any = true;
+    out << "      <Grid Name=\"surface_" << basename_of(group) << "\" GridType=\"Uniform\">\n"
+        << "        <Time Value=\"" << format_double(file.read_attribute_double(group, "time"))
+        << "\"/>\n"
+        << "        <Topology TopologyType=\"Triangle\" NumberOfElements=\""
+        << file.dims(base + "/triangles").at(0) << "\">\n";
+    data_item(x, base + "/triangles", "          ");
+    out << "        </Topology>\n"
+        << "        <Geometry GeometryType=\"XYZ\">\n";
+    data_item(x, base + "/points", "          ");
+    out << "        </Geometry>\n";
+    attribute(x, "cut_id", base + "/cut_id", "Cell");
+    attribute(x, "owner_cell", base + "/owner_cell", "Node");
+    out << "      </Grid>\n";
+  }
+  out << kIndexFooter;
+  return any ? out.str() : std::string();
+}
+
+/// Writes `text` to `path` atomically: "<path>.tmp", fsync, rename.
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (f == nullptr) throw std::runtime_error(system_error("open", tmp));
-  const std::string text = out.str();
   bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
   ok = std::fflush(f) == 0 && ok;
   ok = ::fsync(::fileno(f)) == 0 && ok;
   ok = std::fclose(f) == 0 && ok;
   if (!ok) throw std::runtime_error(system_error("write", tmp));
-  atomic_rename(tmp, xmf_path);
+  atomic_rename(tmp, path);
+}
+
+}  // namespace
+
+void check_result_path(const std::string& h5_path) {
+  const std::string name = basename_of(h5_path);
+  auto refuse = [&](const std::string& why) {
+    throw std::invalid_argument("output: the result file name '" + name + "' " + why);
+  };
+  if (name.empty() || name == "." || name == "..") refuse("is empty");
+  const std::string problem = xml_text_problem(name);
+  if (!problem.empty())
+    refuse("contains " + problem + ", which the XDMF index cannot refer to (use UTF-8 text)");
+  if (name.find(':') != std::string::npos)
+    refuse("contains ':', which separates the file from the dataset in the XDMF index");
+  if (name.front() == ' ' || name.back() == ' ')
+    refuse("starts or ends with a space, which XDMF readers strip from the file name");
+  // "x_surface.h5" would write the index "x_surface.xmf", the surface index of "x.h5".
+  const std::string volume = basename_of(xdmf_path_for(h5_path));
+  const std::string stem = volume.substr(0, volume.size() - 4);
+  const std::string suffix = kSurfaceStemSuffix;
+  if (stem.size() >= suffix.size() &&
+      stem.compare(stem.size() - suffix.size(), suffix.size(), suffix) == 0)
+    refuse("ends in '" + suffix + "': its index '" + volume + "' is the surface index of '" +
+           stem.substr(0, stem.size() - suffix.size()) + "'");
+}
+
+void write_xdmf(const std::string& h5_path, const std::string& xmf_path) {
+  check_result_path(h5_path);
+  H5File file = H5File::open(h5_path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  std::ostringstream out;
+  XdmfContext x{file, file_reference(basename_of(h5_path)), out};
+  const std::string text = volume_index(x, complete_steps(file));
+  file.close();
+  write_file_atomically(xmf_path, text);
+}
+
+void write_indexes(const std::string& h5_path) {
+  check_result_path(h5_path);
+  H5File file = H5File::open(h5_path, MPI_COMM_SELF, H5File::Access::kReadOnly);
+  std::ostringstream out;
+  XdmfContext x{file, file_reference(basename_of(h5_path)), out};
+  const std::vector<std::string> steps = complete_steps(file);
+  const std::string volume = volume_index(x, steps);
+  const std::string surface = surface_index(x, steps);
+  file.close();
+  write_file_atomically(xdmf_path_for(h5_path), volume);
+  const std::string surface_path = surface_xdmf_path_for(h5_path);
+  if (!surface.empty()) {
+    write_file_atomically(surface_path, surface);
+  } else if (std::remove(surface_path.c_str()) != 0 && errno != ENOENT) {
+    // A surface index of an earlier run of that name would refer to datasets this file
+    // does not have.
+    throw std::runtime_error(system_error("remove", surface_path));
+  }
 }
 
 // ------------------------------------------------------------------------ ResultWriter
 ResultWriter ResultWriter::create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
                                   const RunInfo& run) {
+  check_result_path(path);  // the same path on every rank: all throw or none
   check_mesh(comm, mesh);
   ResultWriter writer(path, comm);
   writer.num_points_ = mesh.points.global_rows;
@@ -427,7 +572,7 @@ ResultWriter ResultWriter::create(const std::string& path, MPI_Comm comm, const 
   on_rank0(comm, [&] {
     fsync_path(tmp);
     atomic_rename(tmp, path);
-    write_xdmf(path, xdmf_path_for(path));
+    write_indexes(path);
   });
   return writer;
 }
@@ -437,6 +582,13 @@ ResultWriter ResultWriter::open(const std::string& path, MPI_Comm comm) {
   H5File f = H5File::open(path, comm, H5File::Access::kReadOnly);
   if (!f.has_attribute("/", "format") || f.read_attribute_string("/", "format") != kFormatName)
     throw std::runtime_error("output: '" + path + "' is not a hexcut result file");
+  const std::int64_t version = f.read_attribute_int64("/", "format_version");
+  if (version != kFormatVersion)
+    throw std::runtime_error("output: '" + path + "' has layout version " +
+                             std::to_string(version) + "; this hexcut writes version " +
+                             std::to_string(kFormatVersion) +
+                             " and cannot continue it (doc/output-format.md)");
+  check_result_path(path);
   writer.last_complete_step_ = f.read_attribute_int64("/steps", "last_complete_step");
   writer.use_mesh(f, mesh_of_last_complete_step(f));
   f.close();
@@ -771,7 +923,7 @@ void ResultWriter::truncate_steps_after(std::int64_t step) {
 void ResultWriter::rewrite_xdmf() {
   if (step_open_) throw std::logic_error("output: rewrite_xdmf inside an open step");
   MPI_Barrier(comm_);
-  on_rank0(comm_, [&] { write_xdmf(path_, xdmf_path()); });
+  on_rank0(comm_, [&] { write_indexes(path_); });
 }
 
 }  // namespace hexcut::output

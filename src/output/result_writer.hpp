@@ -1,4 +1,4 @@
-// hexcut's result file: one HDF5 file per run, written in parallel, plus an XDMF index
+// hexcut's result file: one HDF5 file per run, written in parallel, plus XDMF indexes
 // that ParaView opens as a time series. The layout is specified in doc/output-format.md.
 //
 // All members are COLLECTIVE over the writer's communicator unless stated otherwise: every
@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/lattice_spec.hpp"
 #include "output/h5_file.hpp"
@@ -80,23 +81,46 @@ struct CheckpointInfo {
 
 /// "/steps/000042" for step 42.
 std::string step_group(std::int64_t step);
-/// "<path without .h5>.xmf" ("<path>.xmf" when path does not end in .h5).
+/// The volume index of a result file: "<path without .h5>.xmf" ("<path>.xmf" when path
+/// does not end in .h5).
 std::string xdmf_path_for(const std::string& h5_path);
-/// Writes the XDMF index of the (closed) result file `h5_path` to `xmf_path` atomically
-/// (temporary file + rename), listing the complete steps only. NOT collective: call it on
-/// one process while no one has the file open for writing.
+/// The surface index: the volume index's name with "_surface" before ".xmf"
+/// ("out/run.h5" -> "out/run_surface.xmf").
+std::string surface_xdmf_path_for(const std::string& h5_path);
+/// Every index file write_indexes may write for `h5_path` (volume index, surface index),
+/// whether or not it exists now: what to remove when the result file goes away. Pure
+/// string operation.
+std::vector<std::string> index_paths(const std::string& h5_path);
+/// Throws std::invalid_argument (a one-line reason) when the result file's basename
+/// cannot be referenced from an XDMF index: empty, not UTF-8, control characters, ':'
+/// (XDMF's file/dataset separator), a leading or trailing space (readers strip it), or a
+/// stem ending in "_surface" (its index would be another run's surface index).
+/// doc/output-format.md, "The XDMF indexes".
+void check_result_path(const std::string& h5_path);
+/// (Re)writes every index of the (closed) result file `h5_path` from its content, each
+/// atomically (temporary file + rename): the volume index (xdmf_path_for), listing the
+/// complete steps, and the surface index (surface_xdmf_path_for), listing the complete
+/// steps with a non-empty surface; when there is no such step, an existing surface index
+/// is removed. NOT collective: call it on one process while no one has the file open for
+/// writing. Throws std::invalid_argument when check_result_path refuses the name,
+/// std::runtime_error on I/O errors.
+void write_indexes(const std::string& h5_path);
+/// Writes only the volume index of `h5_path` to `xmf_path` (atomically); not collective.
 void write_xdmf(const std::string& h5_path, const std::string& xmf_path);
 
 class ResultWriter {
  public:
   /// Creates the result file: writes /mesh, /input and an empty /steps into
   /// "<path>.tmp", closes it, and renames it to `path` (replacing an older file), then
-  /// writes an XDMF index with no steps. `path` never names a half-written file.
+  /// writes the indexes (write_indexes: a volume index with no steps; a surface index of
+  /// an older run of that name is removed). `path` never names a half-written file.
+  /// Throws std::invalid_argument before anything is written when check_result_path
+  /// refuses the name.
   static ResultWriter create(const std::string& path, MPI_Comm comm, const MeshData& mesh,
                              const RunInfo& run);
   /// Re-opens an existing result file (restart). The current mesh is the one of the
   /// highest-numbered complete step ("/mesh" when there is none); num_points()/num_cells()
-  /// are its sizes.
+  /// are its sizes. Throws std::runtime_error for a file of another layout version.
   static ResultWriter open(const std::string& path, MPI_Comm comm);
 
   ResultWriter(ResultWriter&&) noexcept = default;
@@ -105,6 +129,7 @@ class ResultWriter {
 
   const std::string& path() const { return path_; }
   std::string xdmf_path() const { return xdmf_path_for(path_); }
+  std::string surface_xdmf_path() const { return surface_xdmf_path_for(path_); }
   /// Sizes of the current mesh (the one point/cell fields and checkpoints are checked
   /// against).
   std::int64_t num_points() const { return num_points_; }
@@ -137,8 +162,9 @@ class ResultWriter {
   void write_surface(std::int64_t step, const SurfaceData& surface);
   /// Writes a point field (global rows = num_points() of the current mesh; the ranks'
   /// slabs must add up to it) of the open step. cols == 1 stores a 1-D dataset. `step`
-  /// must be the open step; "mesh" and "surface" are not field names. `unit` is stored as
-  /// an attribute.
+  /// must be the open step; "mesh" and "surface" are not field names, and a name must be
+  /// UTF-8 without control characters or ':' (the XDMF index carries it). `unit` is
+  /// stored as an attribute.
   void write_point_field(std::int64_t step, const std::string& name, int cols,
                          std::int64_t row_offset, std::int64_t local_rows, const double* data,
                          const std::string& unit = "");
@@ -147,7 +173,7 @@ class ResultWriter {
                         std::int64_t row_offset, std::int64_t local_rows, const double* data,
                         const std::string& unit = "");
   /// Marks the open step complete, updates /steps@last_complete_step, flushes and closes
-  /// the file, then rank 0 rewrites the XDMF index.
+  /// the file, then rank 0 rewrites the XDMF indexes.
   void end_step();
   bool step_open() const { return step_open_; }
 
@@ -180,12 +206,13 @@ class ResultWriter {
                                  std::int32_t* link_data = nullptr);
 
   /// Restart: deletes every /steps group numbered > step and the /solver_history rows
-  /// with step > step, updates last_complete_step and rewrites the XDMF index. The
+  /// with step > step, updates last_complete_step and rewrites the XDMF indexes. The
   /// current mesh becomes the one of the highest-numbered remaining complete step
   /// ("/mesh" when none), so dropping the step that introduced a mesh returns to the
   /// previous one.
   void truncate_steps_after(std::int64_t step);
-  /// Rewrites the XDMF index (rank 0 writes; collective so all ranks see errors).
+  /// Rewrites every XDMF index (write_indexes on rank 0; collective so all ranks see
+  /// errors).
   void rewrite_xdmf();
 
  private:

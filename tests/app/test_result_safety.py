@@ -86,9 +86,11 @@ def main():
     rc, _, err = run([deck, "--overwrite", "-ksp_rtol", "1e-10"])
     now = info(h5)
     check(rc == 0 and now[0] == 1 and "-ksp_rtol 1e-10" in now[1], f"successful rerun replaces: exit {rc}, {now[:2]}")
-    leftovers = [n for n in os.listdir(out) if ".new." in n]
+    leftovers = [n for n in os.listdir(out) if n.startswith("beam.new")]
     check(not leftovers, f"no temporary files left: {leftovers}")
     check(xdmf_files(f"{out}/beam.xmf") == {"beam.h5"}, f"the index refers to beam.h5: {xdmf_files(f'{out}/beam.xmf')}")
+    check(xdmf_files(f"{out}/beam_surface.xmf") == {"beam.h5"},
+          f"the surface index refers to beam.h5: {xdmf_files(f'{out}/beam_surface.xmf')}")
 
     # 4. output.overwrite: true does the same from the deck.
     deck2 = write(d, "beam2.yaml", STATIC.replace("OUT", out).replace("name: beam}", "name: beam, overwrite: true}"))

@@ -20,7 +20,7 @@ def main():
     workdir, command = sys.argv[1], sys.argv[2:]
     os.makedirs(workdir, exist_ok=True)
     h5 = os.path.join(workdir, "killed.h5")
-    for stale in (h5, h5 + ".tmp", os.path.splitext(h5)[0] + ".xmf"):
+    for stale in (h5, h5 + ".tmp", *check_result_file.index_paths(h5)):
         if os.path.exists(stale):
             os.remove(stale)
     run = subprocess.run(command + [h5, "--steps", "4", "--kill-after-step", "1"],

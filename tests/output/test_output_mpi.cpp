@@ -234,6 +234,21 @@ TEST(OutputMpi, ResultWriterFieldsAndCheckpointInParallel) {
 // Step 2 splits vertex copies (a new mesh with more points); surfaces on steps 1 and 3;
 // every table written from uneven slabs (rank 0 owns few or no rows) and read back with
 // other partitions; restart on 2 ranks.
+// A result name the XDMF index cannot refer to is refused on every rank, before any
+// collective I/O (no rank is left waiting), and nothing is created.
+TEST(OutputMpi, NamesTheIndexCannotReferToAreRefusedOnEveryRank) {
+  fs::path dir = scratch_dir("names");
+  hexcut::LatticeSpec lattice;
+  lattice.h = 0.5;
+  lattice.dims = {4, 2, 1};
+  const FullMesh mesh = lattice_mesh(lattice);
+  MeshSlices m(mesh, split(30, 7), split(8, 3));
+  const std::string path = (dir / "job_12:30.h5").string();
+  EXPECT_THROW(ResultWriter::create(path, MPI_COMM_WORLD, m.data, {"", ""}), std::invalid_argument);
+  MPI_Barrier(MPI_COMM_WORLD);
+  EXPECT_FALSE(fs::exists(path) || fs::exists(path + ".tmp"));
+}
+
 TEST(OutputMpi, MeshChangesAndSurfacesInParallel) {
   ASSERT_GE(size(), 2);
   fs::path dir = scratch_dir("cuts");

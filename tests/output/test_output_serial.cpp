@@ -223,7 +223,13 @@ TEST(OutputResultWriter, CreateIsAtomicAndStepsCloseTheFile) {
   w.end_step();
   EXPECT_EQ(w.last_complete_step(), 0);
   EXPECT_NE(read_text(dir / "run.xmf").find("run.h5:/steps/000000/stress"), std::string::npos);
+  // 6 columns: Matrix, which every ParaView reader passes through unchanged (Tensor6 is
+  // reordered by one reader and not by the others).
+  EXPECT_NE(read_text(dir / "run.xmf")
+                .find("<Attribute Name=\"stress\" AttributeType=\"Matrix\" Center=\"Cell\">"),
+            std::string::npos);
   EXPECT_EQ(read_text(dir / "run.xmf").find("hexcut_surface"), std::string::npos);  // none
+  EXPECT_FALSE(fs::exists(dir / "run_surface.xmf"));
   EXPECT_FALSE(fs::exists(dir / "run.xmf.tmp"));
 
   // The file is closed between steps: another (read-only) open sees the complete step.
@@ -314,6 +320,10 @@ TEST(OutputResultWriter, CheckpointRoundTripAndTruncate) {
 TEST(OutputResultWriter, XdmfPathAndStepNames) {
   EXPECT_EQ(xdmf_path_for("out/run.h5"), "out/run.xmf");
   EXPECT_EQ(xdmf_path_for("run.hdf5"), "run.hdf5.xmf");
+  EXPECT_EQ(surface_xdmf_path_for("out/run.h5"), "out/run_surface.xmf");
+  EXPECT_EQ(surface_xdmf_path_for("run.hdf5"), "run.hdf5_surface.xmf");
+  EXPECT_EQ(index_paths("out/run.h5"),
+            (std::vector<std::string>{"out/run.xmf", "out/run_surface.xmf"}));
   EXPECT_EQ(step_group(42), "/steps/000042");
   EXPECT_THROW(step_group(-1), std::invalid_argument);
 }
@@ -424,8 +434,11 @@ TEST(OutputResultWriter, MeshPerTopologyVersionAndSurfaces) {
     EXPECT_EQ(std::count(cut.begin(), cut.end(), 1), 4);
     EXPECT_EQ(r.dims("/checkpoint/slot0/displacement"), (std::vector<std::int64_t>{20, 3}));
   }
-  // The XDMF: each step's volume grid uses that step's mesh; surfaces on steps 1 and 3.
+  // The XDMF: each step's volume grid uses that step's mesh; the surfaces of steps 1 and 3
+  // are in their own index (one collection per index, so that every reader keeps the
+  // volume's arrays).
   const std::string xmf = read_text(dir / "run.xmf");
+  const std::string surfaces = read_text(dir / "run_surface.xmf");
   const std::string g1 = grid_text(xmf, "step_000001"), g3 = grid_text(xmf, "step_000003");
   EXPECT_NE(g1.find("run.h5:/mesh/points"), std::string::npos);
   EXPECT_NE(g3.find("Dimensions=\"20 3\" NumberType=\"Float\" Precision=\"8\" "
@@ -434,15 +447,26 @@ TEST(OutputResultWriter, MeshPerTopologyVersionAndSurfaces) {
       << g3;
   EXPECT_NE(g3.find("run.h5:/steps/000002/mesh/cells"), std::string::npos);
   EXPECT_EQ(g3.find("run.h5:/mesh/"), std::string::npos);
-  EXPECT_NE(xmf.find("<Grid Name=\"hexcut_surface\""), std::string::npos);
-  const std::string s1 = grid_text(xmf, "surface_000001"), s3 = grid_text(xmf, "surface_000003");
+  EXPECT_EQ(xmf.find("surface"), std::string::npos);
+  EXPECT_NE(surfaces.find("<Grid Name=\"hexcut_surface\""), std::string::npos);
+  EXPECT_EQ(surfaces.find("step_"), std::string::npos);
+  const std::string s1 = grid_text(surfaces, "surface_000001"),
+                    s3 = grid_text(surfaces, "surface_000003");
   EXPECT_NE(s1.find("TopologyType=\"Triangle\" NumberOfElements=\"12\""), std::string::npos);
   EXPECT_NE(s3.find("run.h5:/steps/000003/surface/triangles"), std::string::npos);
   EXPECT_NE(s3.find("<Attribute Name=\"cut_id\" AttributeType=\"Scalar\" Center=\"Cell\">"),
             std::string::npos);
   EXPECT_NE(s3.find("<Attribute Name=\"owner_cell\" AttributeType=\"Scalar\" Center=\"Node\">"),
             std::string::npos);
-  EXPECT_EQ(grid_text(xmf, "surface_000002"), "");
+  EXPECT_EQ(grid_text(surfaces, "surface_000002"), "");
+  // write_indexes rewrites both from the file alone.
+  fs::remove(dir / "run.xmf");
+  fs::remove(dir / "run_surface.xmf");
+  write_indexes(path);
+  EXPECT_EQ(read_text(dir / "run.xmf"), xmf);
+  EXPECT_EQ(read_text(dir / "run_surface.xmf"), surfaces);
+  write_xdmf(path, (dir / "volume_only.xmf").string());  // the volume index alone
+  EXPECT_EQ(read_text(dir / "volume_only.xmf"), xmf);
 
   // Restart: open() continues with the mesh of the last complete step.
   ResultWriter w = ResultWriter::open(path, MPI_COMM_SELF);
@@ -459,9 +483,10 @@ TEST(OutputResultWriter, MeshPerTopologyVersionAndSurfaces) {
   EXPECT_EQ(w.mesh_path(), "/mesh");
   EXPECT_EQ(w.last_complete_step(), 1);
   const std::string xmf1 = read_text(dir / "run.xmf");
+  const std::string surfaces1 = read_text(dir / "run_surface.xmf");
   EXPECT_EQ(xmf1.find("/steps/000002"), std::string::npos);
-  EXPECT_EQ(grid_text(xmf1, "surface_000003"), "");
-  EXPECT_NE(grid_text(xmf1, "surface_000001"), "");
+  EXPECT_EQ(grid_text(surfaces1, "surface_000003"), "");
+  EXPECT_NE(grid_text(surfaces1, "surface_000001"), "");
   // And goes on with the original mesh.
   w.begin_step(2, 0.5);
   std::vector<double> u16 = table<double>(16, 3);
@@ -593,4 +618,78 @@ TEST(OutputResultWriter, EmptySurfaceIsNotIndexed) {
   const std::string xmf = read_text(dir / "run.xmf");
   EXPECT_NE(xmf.find("step_000000"), std::string::npos);
   EXPECT_EQ(xmf.find("hexcut_surface"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "run_surface.xmf"));
+}
+
+TEST(OutputResultWriter, SurfaceIndexOfAnEarlierRunIsRemoved) {
+  fs::path dir = scratch_dir("stale_surface_index");
+  const std::string path = (dir / "run.h5").string();
+  write_cut_run(path);
+  ASSERT_TRUE(fs::exists(dir / "run_surface.xmf"));
+  // A new run of that name without surfaces: the old surface index would refer to
+  // datasets the new file does not have.
+  MeshSlices m0(lattice_mesh(row_lattice()), all_rows(16), all_rows(3));
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  EXPECT_FALSE(fs::exists(dir / "run_surface.xmf"));
+  EXPECT_TRUE(fs::exists(dir / "run.xmf"));
+}
+
+TEST(OutputResultWriter, NamesTheIndexCannotReferToAreRefused) {
+  fs::path dir = scratch_dir("names");
+  MeshSlices m0(lattice_mesh(row_lattice()), all_rows(16), all_rows(3));
+  // ':' separates file and dataset in XDMF ("job_12:30.h5" opened as "30.h5"); readers
+  // strip surrounding spaces; control characters and non-UTF-8 bytes make the index
+  // malformed XML; "x_surface.xmf" would be the surface index of "x".
+  for (const std::string name :
+       {"job_12:30.h5", " run.h5", "run.h5 ", "a\tb.h5", "a\x01.h5", "\xff\xfe.h5", "caf\xc3.h5",
+        "\xed\xa0\x80.h5", "cut_surface.h5"}) {
+    const std::string path = (dir / name).string();
+    EXPECT_THROW(ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""}),
+                 std::invalid_argument)
+        << name;
+    EXPECT_THROW(check_result_path(path), std::invalid_argument) << name;
+    EXPECT_FALSE(fs::exists(path) || fs::exists(path + ".tmp")) << name;
+  }
+  try {
+    check_result_path("out/job_12:30.h5");
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'job_12:30.h5' contains ':'"), std::string::npos)
+        << e.what();
+  }
+
+  // Names XML cannot hold verbatim are escaped; a leading non-ASCII character gets "./"
+  // (ParaView's Xdmf2 reader drops it otherwise). Field names likewise.
+  const std::string odd = "\xc3\xa9t\xc3\xa9 & <b> 'c' \"d\".h5";
+  const std::string path = (dir / odd).string();
+  ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  w.begin_step(0, 0.0);
+  std::vector<double> e3 = table<double>(3, 0);
+  EXPECT_THROW(w.write_cell_field(0, "a:b", 1, 0, 3, e3.data()), std::invalid_argument);
+  EXPECT_THROW(w.write_cell_field(0, "a\nb", 1, 0, 3, e3.data()), std::invalid_argument);
+  EXPECT_THROW(w.write_cell_field(0, "\xff", 1, 0, 3, e3.data()), std::invalid_argument);
+  w.write_cell_field(0, "energy & <odd> \"name\"", 1, 0, 3, e3.data());
+  w.end_step();
+  const std::string xmf = read_text(dir / "\xc3\xa9t\xc3\xa9 & <b> 'c' \"d\".xmf");
+  EXPECT_NE(xmf.find("<Attribute Name=\"energy &amp; &lt;odd&gt; &quot;name&quot;\""),
+            std::string::npos)
+      << xmf;
+  EXPECT_NE(xmf.find(">./\xc3\xa9t\xc3\xa9 &amp; &lt;b&gt; &apos;c&apos; &quot;d&quot;.h5:"
+                     "/steps/000000/energy &amp; &lt;odd&gt; &quot;name&quot;</DataItem>"),
+            std::string::npos)
+      << xmf;
+}
+
+TEST(OutputResultWriter, OpenRefusesAnotherLayoutVersion) {
+  fs::path dir = scratch_dir("version");
+  const std::string path = (dir / "run.h5").string();
+  MeshSlices m0(lattice_mesh(row_lattice()), all_rows(16), all_rows(3));
+  ResultWriter::create(path, MPI_COMM_SELF, m0.data, {"", ""});
+  EXPECT_NO_THROW(ResultWriter::open(path, MPI_COMM_SELF));
+  {
+    H5File f = H5File::open(path, MPI_COMM_SELF, H5File::Access::kReadWrite);
+    EXPECT_EQ(f.read_attribute_int64("/", "format_version"), 2);
+    f.write_attribute("/", "format_version", std::int64_t{1});
+  }
+  EXPECT_THROW(ResultWriter::open(path, MPI_COMM_SELF), std::runtime_error);
 }

@@ -2,8 +2,9 @@
 //   output_write_result_file FILE.h5 [--steps N] [--kill-after-step K] [--kill-during-step K]
 //   output_write_result_file FILE.h5 --cuts [--reopen-truncate K]
 // Lattice 3x2x2 cells (h = 0.5, origin (1,2,3)), 36 points, 12 cells. Step s has time
-// 0.25*s; every field value is value(kind, s, row, col) below (check_result_file.py repeats
-// the formulas). With --kill-after-step K, rank 0 SIGKILLs itself right after step K closed;
+// 0.25*s; every field value is value(kind, s, row, col) below, except the pressure,
+// -tr(stress)/3 (check_result_file.py repeats the formulas). With --kill-after-step K,
+// rank 0 SIGKILLs itself right after step K closed;
 // with --kill-during-step K, after the first field of step K (used to probe the window).
 // With --cuts: steps 1, 2, 3 on the same lattice; step 2 splits the vertex copies of the
 // plane i = 2 (a cut between the cells i = 1 and i = 2: write_mesh with 45 points), and
@@ -64,13 +65,32 @@ void write_fields(ResultWriter& writer, int s, const Slab& P, const Slab& C,
   if (after_first_field) after_first_field();
   writer.write_point_field(s, "velocity", 3, P.row_offset, P.local_rows, v.data(), "m/s");
   writer.write_point_field(s, "acceleration", 3, P.row_offset, P.local_rows, a.data(), "m/s^2");
+  // The stress in VTK's order xx, yy, zz, xy, yz, xz; the pressure is -tr/3 of it, so
+  // that trace + 3p = 0 can be checked through every reader.
   auto stress = table(4, s, C, 6), vm = table(5, s, C, 1), pr = table(6, s, C, 1),
-       ps = table(7, s, C, 3), pd = table(8, s, C, 9);
+       ps = table(7, s, C, 3), pd = table(8, s, C, 9), odd = table(9, s, C, 1);
+  for (std::int64_t r = 0; r < C.local_rows; ++r)
+    pr[r] = -(stress[6 * r] + stress[6 * r + 1] + stress[6 * r + 2]) / 3.0;
   writer.write_cell_field(s, "stress", 6, C.row_offset, C.local_rows, stress.data(), "Pa");
   writer.write_cell_field(s, "von_mises", 1, C.row_offset, C.local_rows, vm.data(), "Pa");
   writer.write_cell_field(s, "pressure", 1, C.row_offset, C.local_rows, pr.data(), "Pa");
-  writer.write_cell_field(s, "principal_stress", 3, C.row_offset, C.local_rows, ps.data(), "Pa");
-  writer.write_cell_field(s, "principal_directions", 9, C.row_offset, C.local_rows, pd.data());
+  // principal_stress_k = column k-1 of kind 7, principal_direction_k = columns 3(k-1)..
+  // of kind 8, as hexcut writes them (format version 2).
+  for (int k = 0; k < 3; ++k) {
+    std::vector<double> value, direction;
+    for (std::int64_t r = 0; r < C.local_rows; ++r) {
+      value.push_back(ps[3 * r + k]);
+      for (int d = 0; d < 3; ++d) direction.push_back(pd[9 * r + 3 * k + d]);
+    }
+    const std::string n = std::to_string(k + 1);
+    writer.write_cell_field(s, "principal_stress_" + n, 1, C.row_offset, C.local_rows, value.data(),
+                            "Pa");
+    writer.write_cell_field(s, "principal_direction_" + n, 3, C.row_offset, C.local_rows,
+                            direction.data());
+  }
+  // A name that XML must escape (the index carries it as an attribute name and a path).
+  writer.write_cell_field(s, "energy & <odd> \"name\"", 1, C.row_offset, C.local_rows, odd.data(),
+                          "J");
   std::vector<std::int32_t> links;
   for (std::int64_t r = C.row_offset; r < C.row_offset + C.local_rows; ++r)
     links.push_back(static_cast<std::int32_t>(100 * s + r));
