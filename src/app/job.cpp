@@ -93,6 +93,13 @@ void print_warnings(MPI_Comm comm, const deck::Deck& deck, const analysis::Model
 /// file). Throws InputError naming what differs. Collective.
 void require_same_physics(MPI_Comm comm, const deck::Deck& deck, const analysis::Model& model,
                           const std::string& path) {
+  // A file hexcut cannot continue (not a result, another layout version) is the user's
+  // input, not an internal error.
+  try {
+    output::ResultWriter::open(path, comm);
+  } catch (const std::runtime_error& e) {
+    throw InputError("--restart " + path + ": " + e.what());
+  }
   auto f = output::H5File::open(path, comm, output::H5File::Access::kReadOnly);
   std::vector<std::string> diffs;
   if (f.exists("/input/deck")) {
@@ -361,7 +368,6 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                    paths.final_path.c_str(), paths.write_path.c_str());
     throw;
   }
-  const std::string xmf = out->writer().xdmf_path();
   out.reset();
   sim.reset();
   commit_result(comm, paths);
@@ -369,10 +375,12 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   PetscTime(&t_end);
   double peak = peak_memory_bytes(), total_peak = 0;
   MPI_Allreduce(&peak, &total_peak, 1, MPI_DOUBLE, MPI_SUM, comm);
-  PetscPrintf(comm, "hexcut: wrote %s and %s (%.2f s, peak memory %.1f MiB over all ranks)\n",
-              paths.final_path.c_str(),
-              (paths.replaces ? output::xdmf_path_for(paths.final_path) : xmf).c_str(),
-              t_end - t_start, total_peak / (1024.0 * 1024.0));
+  std::string indexes;  // the indexes that exist (the surface one only with surfaces)
+  for (const auto& index : output::index_paths(paths.final_path))
+    if (std::filesystem::exists(index)) indexes += " and " + index;
+  PetscPrintf(comm, "hexcut: wrote %s%s (%.2f s, peak memory %.1f MiB over all ranks)\n",
+              paths.final_path.c_str(), indexes.c_str(), t_end - t_start,
+              total_peak / (1024.0 * 1024.0));
   warn_unused_options(comm, options.user_options);
   check_petsc(an::destroy_state(&state), "destroy_state");
   check_petsc(an::destroy_model(&model), "destroy_model");

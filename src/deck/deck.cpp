@@ -819,11 +819,15 @@ void check_output_name(const Context& c, const YAML::Node* n, const std::string&
         return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
                ch == '.' || ch == '_' || ch == '-';
       });
-  if (portable) return;
+  // NAME_surface.xmf is the surface index of NAME.h5: a result may not take that name.
+  const std::string surface = "_surface";
+  const bool index_name = name.size() >= surface.size() &&
+                          name.compare(name.size() - surface.size(), surface.size(), surface) == 0;
+  if (portable && !index_name) return;
   const std::string msg = "output.name '" + name +
                           "' must be a plain file name of letters, digits, '.', '_' and '-' "
-                          "(not starting with '.' or '-'): the XDMF index cannot refer to other "
-                          "names reliably";
+                          "(not starting with '.' or '-', not ending in '_surface'): the XDMF "
+                          "index cannot refer to other names reliably";
   if (!n) throw InputError(c.file, 1, msg + "; the default is the deck file's name: give output.name");
   c.fail(*n, msg);
 }
