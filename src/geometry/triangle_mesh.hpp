@@ -64,7 +64,7 @@ struct SolidOrientation {
 /// Orients a mesh that bounds a solid so that the generalized winding number is 1 in
 /// the solid and 0 outside, whatever the orientation each triangle was given in
 /// (doc/theory.md, "Triangle-mesh solids"):
-///  1. Vertices at bit-identical positions are one vertex (OBJ files often repeat them).
+///  1. Vertices at equal positions are one vertex (OBJ files often repeat them).
 ///     Triangles on the same three positions are copies of the first of them and take no
 ///     part until step 4; triangles with two corners at one position stay as given.
 ///     A piece is a set of triangles connected through edges that exactly two triangles

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 #include <bitset>
+#include <chrono>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -31,8 +32,7 @@ hg::TriangleMesh uv_sphere(const Vector3d& centre, double radius, int nu, int nv
     for (int s = 0; s < nu; ++s) {
       const double th = 2 * kPi * s / nu;
       m.vertices.push_back(centre + radius * Vector3d(std::cos(phi) * std::cos(th),
-                                                      std::cos(phi) * std::sin(th),
-                                                      std::sin(phi)));
+                                                      std::cos(phi) * std::sin(th), std::sin(phi)));
     }
   }
   m.vertices.push_back(centre + Vector3d(0, 0, radius));
@@ -92,8 +92,8 @@ int scramble(hg::TriangleMesh& m, unsigned seed) {
 ::testing::AssertionResult same_orientation(const hg::TriangleMesh& got,
                                             const hg::TriangleMesh& want) {
   if (got.triangles.size() != want.triangles.size()) {
-    return ::testing::AssertionFailure() << got.triangles.size() << " triangles, want "
-                                         << want.triangles.size();
+    return ::testing::AssertionFailure()
+           << got.triangles.size() << " triangles, want " << want.triangles.size();
   }
   int wrong = 0;
   for (std::size_t t = 0; t < got.triangles.size(); ++t) {
@@ -155,8 +155,8 @@ std::string hole_obj(int flip) {
                            {2, 6, 7, 3}, {3, 7, 8, 4}, {4, 8, 5, 1}};
   std::ostringstream os;
   for (double z : {0.3, 0.7}) {
-    os << "v 0.3 0.3 " << z << "\nv 0.7 0.3 " << z << "\nv 0.7 0.7 " << z << "\nv 0.3 0.7 "
-       << z << "\n";
+    os << "v 0.3 0.3 " << z << "\nv 0.7 0.3 " << z << "\nv 0.7 0.7 " << z << "\nv 0.3 0.7 " << z
+       << "\n";
   }
   for (int f = 0; f < 6; ++f) {
     os << "f";
@@ -362,8 +362,8 @@ TEST(GeometryOrientation, HolesDoNotStopPropagation) {
 
 TEST(GeometryOrientation, SeparateAndOverlappingShellsAreUnited) {
   const auto spec = unit_lattice(0.1, -1.0, 2.0);
-  const hg::TriangleMesh a = cube(0.0, 1.0), b = box(Vector3d(-0.8, -0.8, -0.8),
-                                                     Vector3d(-0.3, -0.2, -0.4));
+  const hg::TriangleMesh a = cube(0.0, 1.0),
+                         b = box(Vector3d(-0.8, -0.8, -0.8), Vector3d(-0.3, -0.2, -0.4));
   const hg::TriangleMesh c = cube(0.43, 1.57);  // overlaps a; neither box holds the other
   const std::int64_t na = centres_in(spec, 0.0, 1.0), nc = centres_in(spec, 0.43, 1.57);
   const std::int64_t nb = 5 * 6 * 4, nac = na + nc - centres_in(spec, 0.43, 1.0);
@@ -537,5 +537,31 @@ TEST(GeometryOrientation, WindingNumbersMatchBruteForce) {
   ASSERT_EQ(w.size(), points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     EXPECT_NEAR(w[i], hg::winding_number(m, points[i]), 1e-9) << i;
+  }
+}
+
+// Time for 10^5 and 10^6 triangles (not part of the suite; run with
+// --gtest_also_run_disabled_tests --gtest_filter='*Timing*').
+TEST(GeometryOrientation, DISABLED_Timing) {
+  const Vector3d c(0.02, -0.01, 0.03);
+  const auto seconds_since = [](auto t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (int nu : {316, 1000}) {
+    hg::TriangleMesh one = uv_sphere(c, 0.9, nu, nu / 2);
+    scramble(one, 2);
+    auto t0 = std::chrono::steady_clock::now();
+    hg::orient_solid(one);
+    std::printf("sphere, %zu triangles: orient_solid %.3f s\n", one.triangles.size(),
+                seconds_since(t0));
+    t0 = std::chrono::steady_clock::now();
+    const auto solid = hg::make_mesh_solid(one);
+    std::printf("  make_mesh_solid (orientation included) %.3f s\n", seconds_since(t0));
+    hg::TriangleMesh m = join(uv_sphere(c, 0.9, nu, nu / 2), uv_sphere(c, 0.5, nu / 2, nu / 4));
+    scramble(m, 1);
+    t0 = std::chrono::steady_clock::now();
+    const auto r = hg::orient_solid(m);
+    std::printf("hollow sphere, %zu triangles: orient_solid %.3f s (%d cavity)\n",
+                m.triangles.size(), seconds_since(t0), r.cavities);
   }
 }
