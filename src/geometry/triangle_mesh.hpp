@@ -22,7 +22,9 @@ struct TriangleMesh {
 /// (case-insensitive). OBJ: `v` and `f` records (v, v/vt, v//vn, v/vt/vn; negative
 /// indices are relative), polygons fan-triangulated, everything else ignored. STL:
 /// binary when the size is exactly 84 + 50*n (even if the header starts with "solid"),
-/// otherwise ASCII; identical vertex positions are merged so the mesh is indexed.
+/// otherwise ASCII; identical vertex positions are merged so the mesh is indexed. STL
+/// facet normals are ignored: triangles keep the file's vertex order, and meshes used as
+/// solids are oriented afterwards (orient_solid).
 /// Throws hexcut::InputError ("path:line: message" where a line applies) for a missing
 /// or unreadable file, bad syntax, an out-of-range index, or a mesh without triangles.
 TriangleMesh load_triangle_mesh(const std::string& path);
@@ -76,10 +78,11 @@ struct SolidOrientation {
 ///     sheet (it has an edge of one triangle) stays as given, since alone it moves w by
 ///     less than 1/2; a wall (all its edges inside it or shared with other pieces, e.g.
 ///     the face between two boxes side by side) is removed.
-///  3. A piece whose box lies in the box of a piece of larger volume, and whose sample
-///     points (up to 32 triangle centroids) are all inside that piece (winding number
-///     > 0.75, none < 0.25, so a piece that crosses it is not inside it), is nested in
-///     it. A piece nested in an odd number of pieces is a cavity and is reversed.
+///  3. A piece lies inside another when its box lies in the other's box, its volume is
+///     smaller, and at its sample points (up to 32 triangle centroids) the other's
+///     winding number is > 0.75 at more than half and < 0.25 at none (a piece that
+///     crosses the other's surface is not inside it: the two are united). A piece
+///     inside an odd number of others is a cavity and is reversed.
 ///  4. Copies of a triangle of a solid piece run like it; copies of a sheet's triangle
 ///     alternate, so that pairs cancel.
 /// O(n log n) for n triangles. Throws std::invalid_argument for an out-of-range index, a
