@@ -230,7 +230,7 @@ struct Pieces {
 };
 
 std::string edge_text(const TriangleMesh& mesh, int a, int b) {
-  return point_text(mesh.vertices[a]) + "–" + point_text(mesh.vertices[b]);
+  return point_text(mesh.vertices[a]) + " - " + point_text(mesh.vertices[b]);
 }
 
 // Step 1: pieces through edges of exactly two triangles, and reversed[t] for each
@@ -292,7 +292,7 @@ Pieces orient_pieces(const TriangleMesh& mesh, const std::vector<int>& canon, co
           }
         }
         throw std::invalid_argument(
-            "the mesh cannot be oriented: it is one-sided (like a Möbius strip); going "
+            "the mesh cannot be oriented: it is one-sided (like a Moebius strip); going "
             "round it reverses the side at the edge " +
             edge_text(mesh, a, b));
       }

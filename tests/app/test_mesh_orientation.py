@@ -60,8 +60,9 @@ def binary_stl(corners, faces):
 
 
 def cells_of_check(out):
-    m = re.search(r"deck is valid: (\d+) cells", out)
-    return int(m.group(1)) if m else None
+    """Cell count that --check reports ('DECK: N cells, M DOFs, ...'), if the deck is valid."""
+    m = re.search(r": (\d+) cells, \d+ DOFs", out)
+    return int(m.group(1)) if m and "deck is valid" in out else None
 
 
 def mobius_obj(n=24):
