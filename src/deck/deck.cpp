@@ -248,7 +248,11 @@ std::shared_ptr<const geometry::Shape> parse_shape_entry(const Context& c, const
     }
     if (kind == "mesh") {
       auto mesh = load_mesh_entry(c, n);
-      return geometry::make_mesh_solid(std::move(mesh));
+      try {
+        return geometry::make_mesh_solid(std::move(mesh));
+      } catch (const std::invalid_argument& e) {  // e.g. a one-sided mesh: name the file
+        c.fail(n["file"], "mesh '" + n["file"].Scalar() + "': " + e.what());
+      }
     }
   } catch (const std::invalid_argument& e) {
     c.fail(n, e.what());

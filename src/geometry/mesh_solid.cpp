@@ -2,7 +2,9 @@
 // Sorkine-Hornung 2013, "Robust inside-outside segmentation using generalized winding
 // numbers"): w(p) = sum over triangles of the signed solid angle / 4π, 1 inside a
 // closed outward-oriented mesh, 0 outside, and a smooth in-between value near holes,
-// so inside = (w >= 0.5) still works for meshes with small holes or cracks.
+// so inside = (w >= 0.5) still works for meshes with small holes or cracks. The sign of
+// w follows the triangles' orientation, which make_mesh_solid() first makes consistent
+// and outward (mesh_orientation.cpp).
 //
 // Speed comes from two layers:
 //  1. Hierarchical evaluation of w (the paper's §3.3). A BVH over the triangles stores,
@@ -427,7 +429,18 @@ double winding_number(const TriangleMesh& mesh, const Eigen::Vector3d& p) {
   return sum / (4.0 * kPi);
 }
 
+std::vector<double> winding_numbers(const TriangleMesh& mesh,
+                                    const std::vector<Eigen::Vector3d>& points) {
+  const MeshSolid solid(mesh);
+  std::vector<double> w(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) w[i] = solid.winding(points[i]);
+  return w;
+}
+
 ShapePtr make_mesh_solid(TriangleMesh mesh) {
+  // Orientation first: the winding number is signed, and outward_normal() relies on
+  // outward triangles too (triangle_mesh.hpp, orient_solid).
+  orient_solid(mesh);
   return std::make_shared<MeshSolid>(std::move(mesh));
 }
 

@@ -96,3 +96,39 @@ TEST(GeometryBunny, MillionCellTiming) {
   EXPECT_LT(seconds, 10.0);
 #endif
 }
+
+TEST(GeometryBunny, OrientationLeavesItAndRestoresIt) {
+  // The file is outward and consistent: orientation changes nothing, so the bunny
+  // voxelizes exactly as before. Inside-out or with random triangles reversed, it comes
+  // back to the file's orientation, triangle by triangle, and to the same cells.
+  hg::TriangleMesh m = bunny();
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = hg::orient_solid(m);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("bunny: orient_solid on %zu triangles in %.4f s\n", m.triangles.size(), seconds);
+  EXPECT_EQ(r.pieces, 1);
+  EXPECT_EQ(r.flipped, 0);
+  EXPECT_EQ(r.cavities + r.sheets + r.walls + r.removed, 0);
+  EXPECT_EQ(m.triangles, bunny().triangles);
+
+  const auto spec = lattice_around(hg::bounds(bunny()), 0.2);
+  const auto cells = [&](const hg::TriangleMesh& mesh) {
+    hg::VoxelGrid grid = hg::make_empty_grid(spec);
+    hg::apply(grid, {hg::OpMode::add, hg::make_mesh_solid(mesh), 0});
+    return grid.material;
+  };
+  const auto want = cells(bunny());
+  hg::TriangleMesh inside_out = bunny();
+  for (auto& t : inside_out.triangles) std::swap(t[1], t[2]);
+  hg::TriangleMesh mixed = bunny();
+  for (std::size_t t = 0; t < mixed.triangles.size(); t += 3) {
+    std::swap(mixed.triangles[t][1], mixed.triangles[t][2]);
+  }
+  EXPECT_TRUE(cells(inside_out) == want);
+  EXPECT_TRUE(cells(mixed) == want);
+  for (hg::TriangleMesh* mesh : {&inside_out, &mixed}) {
+    hg::orient_solid(*mesh);
+    EXPECT_EQ(mesh->triangles, bunny().triangles);
+  }
+}

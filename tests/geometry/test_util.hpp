@@ -29,6 +29,47 @@ inline TriangleMesh cube_mesh(double lo, double hi) {
   return m;
 }
 
+// Cube [0,1]^3 with every face split into n x n quads (2 triangles each), outward.
+// Vertex (i,j,k) on the (n+1)^3 grid has index i + (n+1)(j + (n+1)k).
+inline TriangleMesh tessellated_cube(int n) {
+  TriangleMesh m;
+  const int m1 = n + 1;
+  for (int k = 0; k <= n; ++k) {
+    for (int j = 0; j <= n; ++j) {
+      for (int i = 0; i <= n; ++i)
+        m.vertices.emplace_back(double(i) / n, double(j) / n, double(k) / n);
+    }
+  }
+  const auto id = [&](std::array<int, 3> g) { return g[0] + m1 * (g[1] + m1 * g[2]); };
+  for (int a = 0; a < 3; ++a) {
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    for (int side : {0, n}) {
+      for (int v = 0; v < n; ++v) {
+        for (int u = 0; u < n; ++u) {
+          std::array<int, 4> q;
+          const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
+          for (int corner = 0; corner < 4; ++corner) {
+            std::array<int, 3> g;
+            g[a] = side;
+            g[b] = u + du[corner];
+            g[c] = v + dv[corner];
+            q[corner] = id(g);
+          }
+          // (e_b, e_c) is counter-clockwise about +e_a: keep it on the far side.
+          if (side == n) {
+            m.triangles.push_back({q[0], q[1], q[2]});
+            m.triangles.push_back({q[0], q[2], q[3]});
+          } else {
+            m.triangles.push_back({q[0], q[2], q[1]});
+            m.triangles.push_back({q[0], q[3], q[2]});
+          }
+        }
+      }
+    }
+  }
+  return m;
+}
+
 /// A fresh directory under the system temp dir, removed at scope exit.
 class TempDir {
  public:

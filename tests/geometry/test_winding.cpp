@@ -12,47 +12,6 @@ using Eigen::Vector3d;
 
 namespace {
 
-// Cube [0,1]^3 with every face split into n x n quads (2 triangles each), outward.
-// Vertex (i,j,k) on the (n+1)^3 grid has index i + (n+1)(j + (n+1)k).
-hg::TriangleMesh tessellated_cube(int n) {
-  hg::TriangleMesh m;
-  const int m1 = n + 1;
-  for (int k = 0; k <= n; ++k) {
-    for (int j = 0; j <= n; ++j) {
-      for (int i = 0; i <= n; ++i)
-        m.vertices.emplace_back(double(i) / n, double(j) / n, double(k) / n);
-    }
-  }
-  const auto id = [&](std::array<int, 3> g) { return g[0] + m1 * (g[1] + m1 * g[2]); };
-  for (int a = 0; a < 3; ++a) {
-    const int b = (a + 1) % 3, c = (a + 2) % 3;
-    for (int side : {0, n}) {
-      for (int v = 0; v < n; ++v) {
-        for (int u = 0; u < n; ++u) {
-          std::array<int, 4> q;
-          const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
-          for (int corner = 0; corner < 4; ++corner) {
-            std::array<int, 3> g;
-            g[a] = side;
-            g[b] = u + du[corner];
-            g[c] = v + dv[corner];
-            q[corner] = id(g);
-          }
-          // (e_b, e_c) is counter-clockwise about +e_a: keep it on the far side.
-          if (side == n) {
-            m.triangles.push_back({q[0], q[1], q[2]});
-            m.triangles.push_back({q[0], q[2], q[3]});
-          } else {
-            m.triangles.push_back({q[0], q[2], q[1]});
-            m.triangles.push_back({q[0], q[3], q[2]});
-          }
-        }
-      }
-    }
-  }
-  return m;
-}
-
 hexcut::LatticeSpec test_lattice() {
   hexcut::LatticeSpec spec;
   spec.origin = Vector3d(-0.31, -0.29, -0.33);
@@ -129,7 +88,7 @@ TEST(GeometryWinding, CubeWithOneTriangleRemoved) {
 }
 
 TEST(GeometryWinding, ClosedTessellatedCubeClassifiesExactly) {
-  const auto cube = tessellated_cube(8);
+  const auto cube = hg::test::tessellated_cube(8);
   EXPECT_NEAR(hg::enclosed_volume(cube), 1.0, 1e-12);
   expect_classify_matches_brute_force(cube);
   // All cells with centre strictly inside [0,1]^3 and no others.
@@ -150,7 +109,7 @@ TEST(GeometryWinding, ClosedTessellatedCubeClassifiesExactly) {
 TEST(GeometryWinding, HolesInTessellatedCube) {
   // A 3x3-quad hole in one face, and separately a whole face removed (an open box).
   const int n = 8;
-  auto holed = tessellated_cube(n);
+  auto holed = hg::test::tessellated_cube(n);
   auto open_box = holed;
   // Face (a=0, side=0) holds triangles [0, 2n^2); quad (u,v) is triangles 2(u+nv), +1.
   std::vector<std::array<int, 3>> kept;
