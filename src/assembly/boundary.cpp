@@ -40,7 +40,7 @@ double evaluate(const deck::Field& f, const Eigen::Vector3d& x, double t, std::s
     std::snprintf(where, sizeof where, " at x = %.9g, y = %.9g, z = %.9g m, t = %.9g s", x[0],
                   x[1], x[2], t);
     bad = f.where.prefix() + "the expression '" + (f.expression ? f.expression->text() : "") +
-          "' is " + std::to_string(v) + where;
+          "' is " + (std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf") + where;
   }
   return v;
 }
