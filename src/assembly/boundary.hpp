@@ -16,9 +16,9 @@ namespace hexcut::assembly {
 
 /// The prescribed DOFs owned by this rank and their values.
 struct Constraints {
-  std::vector<PetscInt> rows;              // global DOF indices, ascending
-  std::vector<const deck::Field*> value;   // per row
-  std::vector<Eigen::Vector3d> position;   // per row: reference position of the vertex [m]
+  std::vector<PetscInt> rows;             // global DOF indices, ascending
+  std::vector<const deck::Field*> value;  // per row
+  std::vector<Eigen::Vector3d> position;  // per row: reference position of the vertex [m]
   PetscInt global_count = 0;
   bool expressions = false;  // some support value of the deck is an expression (every rank)
 };
@@ -31,9 +31,9 @@ struct Boundary {
   /// origin + h ((n & 1) e_a + (n >> 1) e_b), a < b the axes other than `axis`.
   struct Face {
     std::array<std::int32_t, 4> local_copies;
-    Eigen::Vector3d origin{0, 0, 0};  // reference position of corner 0 [m]
-    int axis = 0;                     // the normal's axis
-    int side = 0;                     // outward normal: +e_axis when 1, -e_axis when 0
+    Eigen::Vector3d origin{0, 0, 0};           // reference position of corner 0 [m]
+    int axis = 0;                              // the normal's axis
+    int side = 0;                              // outward normal: +e_axis when 1, -e_axis when 0
     const deck::Traction* traction = nullptr;  // exactly one of traction and pressure
     const deck::Pressure* pressure = nullptr;
     enum class Kind { uniform, fixed_in_time, varying };
@@ -42,6 +42,7 @@ struct Boundary {
   };
   std::vector<Face> faces;
   bool face_expressions = false;  // some traction or pressure is an expression (every rank)
+
   struct Point {   // a point load on an owned copy
     PetscInt dof;  // global index of the x DOF
     const deck::PointLoad* load;
@@ -61,8 +62,8 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
 /// function of corner n, with 2x2 Gauss points (exact for a bilinear t). A pressure p
 /// gives t = -p n, n the outward normal. The first non-finite value found is described in
 /// `bad` ("deck.yaml:LINE: ..."), unless `bad` already holds one.
-std::array<Eigen::Vector3d, 4> consistent_face_loads(const Boundary::Face& face, double h,
-                                                     double t, std::string& bad);
+std::array<Eigen::Vector3d, 4> consistent_face_loads(const Boundary::Face& face, double h, double t,
+                                                     std::string& bad);
 
 /// f = scale * external force at time t (gravity, tractions, pressures, point loads);
 /// overwritten. A traction or pressure expression that is not finite somewhere throws

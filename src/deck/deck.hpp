@@ -95,8 +95,8 @@ struct Traction {
 /// normal in the reference configuration (a dead load; doc/theory.md "Supports and loads").
 struct Pressure {
   Selector selector;
-  Field value;        // p [Pa], positive pushes into the body (a constant or an expression)
-  TimeFunction scale; // multiplies value; default constant 1
+  Field value;         // p [Pa], positive pushes into the body (a constant or an expression)
+  TimeFunction scale;  // multiplies value; default constant 1
 };
 
 struct PointLoad {

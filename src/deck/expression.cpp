@@ -1,11 +1,11 @@
 #include "deck/expression.hpp"
 
-#include "deck/deck.hpp"
-
 #include <muParser.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "deck/deck.hpp"
 
 namespace hexcut::deck {
 
@@ -70,8 +70,7 @@ double Field::operator()(const Eigen::Vector3d& x, double t) const {
 }
 
 bool Field::depends_on_time() const {
-  return expression ? expression->depends_on_time()
-                    : function.kind != TimeFunction::Kind::constant;
+  return expression ? expression->depends_on_time() : function.kind != TimeFunction::Kind::constant;
 }
 
 }  // namespace hexcut::deck

@@ -283,7 +283,8 @@ TEST(Loads, ExpressionSupportsArePrescribedAtTheVertices) {
   double worst = 0;
   for (std::int32_t v = 0; v < job.model.copies.num_copies; ++v) {
     const Eigen::Vector3d x = job.position(v);
-    const Eigen::Vector3d exact(1e-3 * x.x() * x.y() + 2e-4, -1.5e-4, std::sin(M_PI * x.z()) * 1e-3);
+    const Eigen::Vector3d exact(1e-3 * x.x() * x.y() + 2e-4, -1.5e-4,
+                                std::sin(M_PI * x.z()) * 1e-3);
     worst = std::max(worst, (Eigen::Vector3d(&u[3 * v]) - exact).norm());
   }
   EXPECT_LT(worst, 1e-15);
