@@ -37,10 +37,11 @@ double evaluate(const deck::Field& f, const Eigen::Vector3d& x, double t, std::s
   const double v = f(x, t);
   if (!std::isfinite(v) && bad.empty()) {
     char where[160];
-    std::snprintf(where, sizeof where, " at x = %.9g, y = %.9g, z = %.9g m, t = %.9g s", x[0],
-                  x[1], x[2], t);
+    std::snprintf(where, sizeof where, " at x = %.9g, y = %.9g, z = %.9g m, t = %.9g s", x[0], x[1],
+                  x[2], t);
+    const char* what = std::isnan(v) ? "nan" : (v > 0 ? "inf" : "-inf");
     bad = f.where.prefix() + "the expression '" + (f.expression ? f.expression->text() : "") +
-          "' is " + (std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf") + where;
+          "' is " + what + where;
   }
   return v;
 }
@@ -275,9 +276,8 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellDat
         }
         face_loads[k].fill(density * s * (scale * C.h * C.h / 4.0));
       } else {
-        face_loads[k] = face.kind == Kind::fixed_in_time
-                            ? face.nodal
-                            : consistent_face_loads(face, C.h, t, bad);
+        face_loads[k] = face.kind == Kind::fixed_in_time ? face.nodal
+                                                         : consistent_face_loads(face, C.h, t, bad);
         for (auto& v : face_loads[k]) v *= s * scale;
       }
     }
@@ -333,8 +333,7 @@ namespace {
 
 /// scale * the prescribed value of every row at time t; throws InputError on every rank
 /// when an expression is not finite somewhere (collective).
-std::vector<double> prescribed_values(MPI_Comm comm, const Constraints& c, double t,
-                                      double scale) {
+std::vector<double> prescribed_values(MPI_Comm comm, const Constraints& c, double t, double scale) {
   std::vector<double> values(c.rows.size());
   std::string bad;
   for (std::size_t i = 0; i < c.rows.size(); ++i)
