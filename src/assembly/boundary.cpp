@@ -255,33 +255,15 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
 PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellData& C,
                               const Boundary& B, double t, double scale, Vec f) {
   PetscFunctionBeginUser;
-  // Face loads first: a non-finite expression throws before any vector is borrowed.
-  std::vector<std::array<Eigen::Vector3d, 4>> face_loads(B.faces.size());
-  {
-    using Kind = Boundary::Face::Kind;
+  using Kind = Boundary::Face::Kind;
+  // Faces whose expressions vary in time are integrated first, so that a non-finite value
+  // throws before any vector is borrowed.
+  std::vector<std::array<Eigen::Vector3d, 4>> varying;
+  if (B.face_expressions) {
     std::string bad;
-    for (std::size_t k = 0; k < B.faces.size(); ++k) {
-      const auto& face = B.faces[k];
-      const double s = face.traction ? face.traction->scale(t) : face.pressure->scale(t);
-      if (face.kind == Kind::uniform) {
-        // A constant traction on a bilinear face gives t h^2 / 4 at each face corner.
-        Eigen::Vector3d density;
-        if (face.traction) {
-          const auto& v = face.traction->value;
-          density = {v[0].function.value, v[1].function.value, v[2].function.value};
-        } else {
-          density.setZero();
-          density[face.axis] = face.side ? -face.pressure->value.function.value
-                                         : face.pressure->value.function.value;
-        }
-        face_loads[k].fill(density * s * (scale * C.h * C.h / 4.0));
-      } else {
-        face_loads[k] = face.kind == Kind::fixed_in_time ? face.nodal
-                                                         : consistent_face_loads(face, C.h, t, bad);
-        for (auto& v : face_loads[k]) v *= s * scale;
-      }
-    }
-    if (B.face_expressions) throw_if_not_finite(PetscObjectComm((PetscObject)dm), bad);
+    for (const auto& face : B.faces)
+      if (face.kind == Kind::varying) varying.push_back(consistent_face_loads(face, C.h, t, bad));
+    throw_if_not_finite(PetscObjectComm((PetscObject)dm), bad);
   }
   Vec fl;
   PetscCall(DMGetLocalVector(dm, &fl));
@@ -311,9 +293,29 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellDat
         for (int d = 0; d < 3; ++d) a[3 * D.cell_corners[e][q] + d] += f[d];
     }
   }
-  for (std::size_t k = 0; k < B.faces.size(); ++k)
+  std::size_t next_varying = 0;
+  for (const auto& face : B.faces) {
+    const double tf = face.traction ? face.traction->scale(t) : face.pressure->scale(t);
+    std::array<Eigen::Vector3d, 4> load;
+    if (face.kind == Kind::uniform) {
+      // A constant traction on a bilinear face gives t h^2 / 4 at each face corner.
+      Eigen::Vector3d density;
+      if (face.traction) {
+        const auto& v = face.traction->value;
+        density = {v[0].function.value, v[1].function.value, v[2].function.value};
+      } else {
+        density.setZero();
+        density[face.axis] =
+            face.side ? -face.pressure->value.function.value : face.pressure->value.function.value;
+      }
+      load.fill(density * tf * (scale * C.h * C.h / 4.0));
+    } else {
+      load = face.kind == Kind::fixed_in_time ? face.nodal : varying[next_varying++];
+      for (auto& v : load) v *= tf * scale;
+    }
     for (int n = 0; n < 4; ++n)
-      for (int d = 0; d < 3; ++d) a[3 * B.faces[k].local_copies[n] + d] += face_loads[k][n][d];
+      for (int d = 0; d < 3; ++d) a[3 * face.local_copies[n] + d] += load[n][d];
+  }
   PetscCall(VecRestoreArray(fl, &a));
   PetscCall(VecSet(f, 0.0));
   PetscCall(DMLocalToGlobalBegin(dm, fl, ADD_VALUES, f));
