@@ -11,8 +11,8 @@ namespace hexcut::deck {
 
 struct Expression::Parser {
   mu::Parser parser;
-  // muParser keeps the addresses of the variables: they live here, next to it, so that
-  // they stay put however the Expression is moved.
+  // muParser keeps the addresses of the variables: they live next to it, in this one
+  // heap object, for as long as the parser does.
   double x = 0, y = 0, z = 0, t = 0;
 };
 
