@@ -188,12 +188,16 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
       C.position.push_back(position(D.copies[i / 3]));
     }
   C.global_count = global_sum(comm, std::int64_t(C.rows.size()));
+  // Static analyses use their values at t = 1 only (doc/user-guide.md "Time functions"),
+  // so every expression is checked now, before any heavy work; dynamic ones check the
+  // expressions of t where they are used.
+  const bool static_ = deck.analysis.type == deck::Analysis::Type::static_;
+  const double t_check = static_ ? 1.0 : 0.0;
   if (C.expressions) {
-    // Values fixed in time are checked now, before any heavy work; the others when used.
     std::string bad;
     for (std::size_t r = 0; r < C.rows.size(); ++r)
-      if (C.value[r]->expression && !C.value[r]->depends_on_time())
-        evaluate(*C.value[r], C.position[r], 0.0, bad);
+      if (C.value[r]->expression && (static_ || !C.value[r]->depends_on_time()))
+        evaluate(*C.value[r], C.position[r], t_check, bad);
     throw_if_not_finite(comm, bad);
   }
 
@@ -219,12 +223,15 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
     B.face_expressions = B.face_expressions || p.value.expression;
   }
   if (B.face_expressions) {
-    // Expressions without t are integrated once here (and checked before heavy work).
+    // Expressions without t are integrated once here; those with t of static analyses
+    // are checked at t = 1.
     std::string bad;
     for (auto& f : B.faces) {
       f.kind = face_kind(f);
       if (f.kind == Boundary::Face::Kind::fixed_in_time)
         f.nodal = consistent_face_loads(f, L.spec.h, 0.0, bad);
+      else if (static_ && f.kind == Boundary::Face::Kind::varying)
+        consistent_face_loads(f, L.spec.h, t_check, bad);
     }
     throw_if_not_finite(comm, bad);
   }
