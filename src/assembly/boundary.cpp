@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "common/errors.hpp"
+#include "common/mpi_gather.hpp"
 #include "deck/expression.hpp"
 
 namespace hexcut::assembly {
@@ -55,10 +56,7 @@ void throw_if_not_finite(MPI_Comm comm, const std::string& bad) {
   MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
   if (first == INT_MAX) return;
   std::string message = bad;
-  int n = int(message.size());
-  MPI_Bcast(&n, 1, MPI_INT, first, comm);
-  message.resize(n);
-  MPI_Bcast(message.data(), n, MPI_CHAR, first, comm);
+  broadcast_string(comm, &message, first);
   throw InputError(message);
 }
 
