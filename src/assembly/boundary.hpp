@@ -6,6 +6,7 @@
 #include <petscdm.h>
 #include <petscmat.h>
 
+#include <string>
 #include <vector>
 
 #include "assembly/operator.hpp"
@@ -13,22 +14,35 @@
 
 namespace hexcut::assembly {
 
-/// The prescribed DOFs owned by this rank and their time functions.
+/// The prescribed DOFs owned by this rank and their values.
 struct Constraints {
-  std::vector<PetscInt> rows;                    // global DOF indices, ascending
-  std::vector<const deck::TimeFunction*> value;  // per row
+  std::vector<PetscInt> rows;             // global DOF indices, ascending
+  std::vector<const deck::Field*> value;  // per row
+  std::vector<Eigen::Vector3d> position;  // per row: reference position of the vertex [m]
   PetscInt global_count = 0;
+  bool expressions = false;  // some support value of the deck is an expression (every rank)
 };
 
-/// Boundary data resolved against the body: prescribed DOFs, traction faces, point
-/// load targets.
+/// Boundary data resolved against the body: prescribed DOFs, loaded boundary faces,
+/// point load targets.
 struct Boundary {
   Constraints constraints;
-  struct Face {  // a boundary face with a traction
+  /// A boundary face with a traction or a pressure. Corner n of local_copies is at
+  /// origin + h ((n & 1) e_a + (n >> 1) e_b), a < b the axes other than `axis`.
+  struct Face {
     std::array<std::int32_t, 4> local_copies;
-    const deck::Traction* traction;
+    Eigen::Vector3d origin{0, 0, 0};           // reference position of corner 0 [m]
+    int axis = 0;                              // the normal's axis
+    int side = 0;                              // outward normal: +e_axis when 1, -e_axis when 0
+    const deck::Traction* traction = nullptr;  // exactly one of traction and pressure
+    const deck::Pressure* pressure = nullptr;
+    enum class Kind { uniform, fixed_in_time, varying };
+    Kind kind = Kind::uniform;  // uniform: no expression; else expressions without / with t
+    std::array<Eigen::Vector3d, 4> nodal;  // fixed_in_time: the consistent loads [N] (no scale)
   };
   std::vector<Face> faces;
+  bool face_expressions = false;  // some traction or pressure is an expression (every rank)
+
   struct Point {   // a point load on an owned copy
     PetscInt dof;  // global index of the x DOF
     const deck::PointLoad* load;
@@ -43,12 +57,23 @@ struct Boundary {
 Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::Lattice& lattice,
                           const topology::VertexCopies& copies, const topology::DofLayout& layout);
 
-/// f = scale * external force at time t (gravity, tractions, point loads); overwritten.
+/// Consistent nodal forces of a face's traction or pressure at time t, without its
+/// `scale` time function: f_n = ∫ N_n t(x) dA over the face [N], N_n the bilinear shape
+/// function of corner n, with 2x2 Gauss points (exact for a bilinear t). A pressure p
+/// gives t = -p n, n the outward normal. The first non-finite value found is described in
+/// `bad` ("deck.yaml:LINE: ..."), unless `bad` already holds one.
+std::array<Eigen::Vector3d, 4> consistent_face_loads(const Boundary::Face& face, double h, double t,
+                                                     std::string& bad);
+
+/// f = scale * external force at time t (gravity, tractions, pressures, point loads);
+/// overwritten. A traction or pressure expression that is not finite somewhere throws
+/// InputError naming its deck line, on every rank (collective).
 PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& layout, const CellData& cells,
                               const Boundary& boundary, double t, double scale, Vec f);
 
 /// x[row] = scale * prescribed value at time t for every constrained row; other entries
-/// untouched. (Static load steps use scale < 1.)
+/// untouched. (Static load steps use scale < 1.) An expression that is not finite at a
+/// vertex throws InputError naming its deck line, on every rank (collective).
 PetscErrorCode set_prescribed_values(const Constraints& c, double t, double scale, Vec x);
 
 /// Symmetric elimination of the prescribed rows (design.md §4): the rows and columns of

@@ -1,6 +1,6 @@
 // Every rank's share of a table, concatenated in rank order, on every rank: for the
 // small replicated tables (cell centres at a cut, boundary Hermite data) that every rank
-// of hexcut keeps whole; and rank 0's string on every rank.
+// of hexcut keeps whole; and one rank's string on every rank.
 #pragma once
 
 #include <mpi.h>
@@ -27,12 +27,13 @@ std::vector<T> allgather(MPI_Comm comm, const std::vector<T>& mine) {
   return all;
 }
 
-/// Rank 0's `text` on every rank (a deck, an error message that all ranks must act on).
-inline void broadcast_string(MPI_Comm comm, std::string* text) {
+/// Rank `root`'s `text` on every rank (a deck, an error message that all ranks must act
+/// on).
+inline void broadcast_string(MPI_Comm comm, std::string* text, int root = 0) {
   long n = long(text->size());
-  MPI_Bcast(&n, 1, MPI_LONG, 0, comm);
+  MPI_Bcast(&n, 1, MPI_LONG, root, comm);
   text->resize(std::size_t(n));
-  MPI_Bcast(text->data(), int(n), MPI_CHAR, 0, comm);
+  MPI_Bcast(text->data(), int(n), MPI_CHAR, root, comm);
 }
 
 }  // namespace hexcut

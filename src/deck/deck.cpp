@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "common/errors.hpp"
+#include "deck/expression.hpp"
 #include "geometry/triangle_mesh.hpp"
 #include "geometry/voxel_image.hpp"
 
@@ -487,6 +488,41 @@ TimeFunction parse_time_function(const Context& c, const YAML::Node& n, const st
   return f;
 }
 
+/// A number, or (when `time_functions`) a time function map, or else an expression: a
+/// string that is not a number, compiled here so that its errors carry the deck line.
+Field parse_field(const Context& c, const YAML::Node& n, const std::string& what,
+                  bool time_functions) {
+  Field f;
+  f.where = c.where(n);
+  if (n.IsMap() && time_functions) {
+    f.function = parse_time_function(c, n, what);
+    return f;
+  }
+  if (!n.IsScalar())
+    c.fail(n, what + (time_functions ? " must be a number, a time function or an expression"
+                                     : " must be a number or an expression"));
+  double number = 0.0;
+  if (YAML::convert<double>::decode(n, number)) {
+    if (!std::isfinite(number)) c.fail(n, what + " must be finite");
+    f.function.value = number;
+    return f;
+  }
+  try {
+    f.expression = std::make_shared<const Expression>(n.Scalar());
+  } catch (const std::invalid_argument& e) {
+    c.fail(n, e.what());
+  }
+  return f;
+}
+
+/// A list of three fields (numbers or expressions).
+std::array<Field, 3> parse_field3(const Context& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsSequence() || n.size() != 3)
+    c.fail(n, what + " must be a list of 3 numbers or expressions");
+  return {parse_field(c, n[0], what + "[0]", false), parse_field(c, n[1], what + "[1]", false),
+          parse_field(c, n[2], what + "[2]", false)};
+}
+
 int component_index(const Context& c, const YAML::Node& n) {
   const auto s = get_string(c, n, "component");
   if (s == "x") return 0;
@@ -496,7 +532,8 @@ int component_index(const Context& c, const YAML::Node& n) {
 }
 
 void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
-  check_keys(c, n, "boundary", {"fixed", "traction", "point_loads", "gravity", "centrifugal"});
+  check_keys(c, n, "boundary",
+             {"fixed", "traction", "pressure", "point_loads", "gravity", "centrifugal"});
   if (n["fixed"]) {
     if (!n["fixed"].IsSequence()) c.fail(n["fixed"], "boundary.fixed must be a list");
     for (const auto& f : n["fixed"]) {
@@ -514,11 +551,12 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
       if (f["value"]) {
         const auto& v = f["value"];
         if (v.IsSequence()) {
-          if (v.size() != 3) c.fail(v, "value must be a number, a time function, or a list of 3");
-          for (int i = 0; i < 3; ++i) s.value[i] = parse_time_function(c, v[i], "value");
+          if (v.size() != 3)
+            c.fail(v, "value must be a number, a time function, an expression, or a list of 3");
+          for (int i = 0; i < 3; ++i) s.value[i] = parse_field(c, v[i], "value", true);
         } else {
-          auto tf = parse_time_function(c, v, "value");
-          s.value = {tf, tf, tf};
+          const auto one = parse_field(c, v, "value", true);
+          s.value = {one, one, one};
         }
       }
       d.supports.push_back(s);
@@ -531,10 +569,23 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
       if (!t["where"] || !t["value"]) c.fail(t, "traction needs 'where' and 'value' [Pa]");
       Traction tr;
       tr.selector = parse_selector(c, t["where"], "traction.where");
-      tr.value = get_vec3(c, t["value"], "traction.value");
+      tr.value = parse_field3(c, t["value"], "traction.value");
       tr.scale.value = 1.0;
       if (t["scale"]) tr.scale = parse_time_function(c, t["scale"], "traction.scale");
       d.tractions.push_back(tr);
+    }
+  }
+  if (n["pressure"]) {
+    if (!n["pressure"].IsSequence()) c.fail(n["pressure"], "boundary.pressure must be a list");
+    for (const auto& e : n["pressure"]) {
+      check_keys(c, e, "pressure", {"where", "value", "scale"});
+      if (!e["where"] || !e["value"]) c.fail(e, "pressure needs 'where' and 'value' [Pa]");
+      Pressure p;
+      p.selector = parse_selector(c, e["where"], "pressure.where");
+      p.value = parse_field(c, e["value"], "pressure.value", false);
+      p.scale.value = 1.0;
+      if (e["scale"]) p.scale = parse_time_function(c, e["scale"], "pressure.scale");
+      d.pressures.push_back(p);
     }
   }
   if (n["point_loads"]) {

@@ -58,6 +58,20 @@ struct TimeFunction {
   double operator()(double t) const;
 };
 
+class Expression;  // deck/expression.hpp
+
+/// A prescribed value that may vary in space: a time function, or an expression of the
+/// reference position x, y, z [m] and time t [s] (doc/user-guide.md "Expressions").
+struct Field {
+  TimeFunction function;                         // used when there is no expression
+  std::shared_ptr<const Expression> expression;  // null: the time function
+  SourceLocation where;                          // the deck line of the value
+  /// The value at reference position x [m] and time t [s]; an expression may give inf or
+  /// nan (the callers check).
+  double operator()(const Eigen::Vector3d& x, double t) const;
+  bool depends_on_time() const;
+};
+
 /// Selects vertex copies (supports, point loads), boundary faces (tractions) or cells.
 struct Selector {
   std::shared_ptr<const geometry::Shape> shape;  // null = everything
@@ -68,13 +82,21 @@ struct Selector {
 struct Support {  // fixed or prescribed displacement
   Selector selector;
   std::array<bool, 3> constrained{true, true, true};
-  std::array<TimeFunction, 3> value;  // [m]
+  std::array<Field, 3> value;  // [m], at the vertex; default 0
 };
 
 struct Traction {
   Selector selector;
-  Eigen::Vector3d value{0, 0, 0};  // [Pa]
-  TimeFunction scale;              // multiplies value; default constant 1
+  std::array<Field, 3> value;  // [Pa], force per reference area (constants or expressions)
+  TimeFunction scale;          // multiplies value; default constant 1
+};
+
+/// A pressure on boundary faces: the force on a face is -p n dA with n its outward
+/// normal in the reference configuration (a dead load; doc/theory.md "Supports and loads").
+struct Pressure {
+  Selector selector;
+  Field value;         // p [Pa], positive pushes into the body (a constant or an expression)
+  TimeFunction scale;  // multiplies value; default constant 1
 };
 
 struct PointLoad {
@@ -168,6 +190,7 @@ struct Deck {
   std::vector<GeometryStep> geometry;
   std::vector<Support> supports;
   std::vector<Traction> tractions;
+  std::vector<Pressure> pressures;
   std::vector<PointLoad> point_loads;
   Eigen::Vector3d gravity{0, 0, 0};  // [m/s^2]
   Centrifugal centrifugal;

@@ -39,7 +39,8 @@ TEST(Static, PatchTestReproducesAffineField) {
   auto& cons = job.model.boundary.constraints;
   cons.rows.clear();
   cons.value.clear();
-  std::vector<deck::TimeFunction> values;
+  cons.position.clear();
+  std::vector<deck::Field> values;
   const auto& D = job.model.layout;
   const auto& L = job.model.lattice;
   std::vector<std::pair<PetscInt, double>> prescribed;
@@ -55,8 +56,9 @@ TEST(Static, PatchTestReproducesAffineField) {
   }
   values.resize(prescribed.size());
   for (std::size_t k = 0; k < prescribed.size(); ++k) {
-    values[k].value = prescribed[k].second;
+    values[k].function.value = prescribed[k].second;
     cons.rows.push_back(prescribed[k].first);
+    cons.position.push_back(Eigen::Vector3d::Zero());  // unused: the values are constants
   }
   for (auto& f : values) cons.value.push_back(&f);
 
