@@ -109,4 +109,27 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
   rotate_blocks(R, t, f24);
 }
 
+/// What conserving_force() found besides the force.
+struct ConservingForce {
+  double energy0 = 0.0, energy1 = 0.0;  ///< strain energy 1/2 d^T K d at u0 and u1 [J]
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< R of the mid-point (u0 + u1)/2
+  bool corrected = false;  ///< the discrete-gradient term was added (a deforming step)
+};
+
+/// Energy-conserving corotational force of one cell over a time step from u0 to u1
+/// (doc/theory.md "Energy-conserving step"; Simo & Tarnow 1992, Gonzalez 2000). With
+/// d = R^T (x + u) - x (R the polar rotation of each configuration), dbar = (d0 + d1)/2
+/// and R_m the rotation of the mid-point configuration:
+///   f = R_m^ K dbar - theta x z + s g,
+/// theta x z the infinitesimal rotation of the mid-point corners z (centroid-relative) that
+/// carries the moment of R_m^ K dbar, so f has neither resultant nor moment about the
+/// mid-point configuration (linear and angular momentum are conserved by the mid-point
+/// rule); g the step u1 - u0 less its rigid part (least-squares translation and rotation
+/// of z); s such that f . (u1 - u0) = W(u1) - W(u0) exactly, W = 1/2 d^T K d. When the
+/// step is rigid to round-off (|g| <= 1e-12 |d|) the correction is left out: then both
+/// sides vanish. K: 24x24 cell stiffness; h: cell edge [m]; x24: reference corners; u0,
+/// u1: corner displacements [m]; f24: the force [N].
+ConservingForce conserving_force(const double* K, double h, const double* x24, const double* u0,
+                                 const double* u1, double* f24);
+
 }  // namespace hexcut::element
