@@ -30,7 +30,7 @@ struct StepEnergy {
 /// E_0 the kinetic + strain energy before the first step this monitor saw (after a
 /// restart: at the checkpoint). The run stops when the created energy (summed over steps)
 /// exceeds tolerance * supplied. Linear runs create energy only by round-off and solver
-/// tolerance; the energy-conserving corotational step by its iteration tolerance.
+/// tolerance; the mid-point corotational step little (second order in the rotation per step).
 class EnergyMonitor {
  public:
   explicit EnergyMonitor(double tolerance) : tolerance_(tolerance) {}

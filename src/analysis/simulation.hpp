@@ -43,7 +43,7 @@ class Simulation {
   void run_dynamic(State& state, const Observer& observer);
   /// One time step (exposed for tests): Newmark beta = 1/4, gamma = 1/2 for linear runs
   /// and lagged rotations (one solve); for corotational runs with analysis.rotations:
-  /// iterated the energy-conserving step (doc/theory.md "Energy-conserving step"), which
+  /// iterated the mid-point step (doc/theory.md "Mid-point corotational step"), which
   /// iterates until ||u_k+1 - u_k|| <= tolerance ||u_k+1 - u_n|| and throws SolverError
   /// after analysis.max_iterations. The record sums the Krylov iterations and times of the
   /// step's solves (residuals: the last solve's). Also fills last_step_energy().
@@ -69,8 +69,8 @@ class Simulation {
   void refresh_rotations(Vec u);
   /// One Newmark solve with the rotations of s.u (linear runs: identity).
   solve::SolveRecord linearized_step(State& s, Vec u_new);
-  /// The energy-conserving corotational step; fbar: its mean internal force at the end.
-  solve::SolveRecord conserving_step(const State& s, Vec load_sum, Vec u_new, Vec fbar);
+  /// The mid-point corotational step; fbar: its mean internal force at the end.
+  solve::SolveRecord midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar);
   double kinetic(Vec v);
   double strain_energy(Vec u);
   /// Fills energy_ for the step (u0, v0) -> (s.u, s.v). fbar: the step's mean internal
@@ -88,6 +88,11 @@ class Simulation {
   bool assembled_ = false;
   StepEnergy energy_;
   int solves_ = 0;
+  std::vector<double> start_d_;  // mid-point step: corotated displacements at u_n per cell
+  // Kinetic and strain energy after the last step (for the next step's start): the state
+  // is the one this simulation left at step cached_step_ (-1: none).
+  std::int64_t cached_step_ = -1;
+  double cached_kinetic_ = 0, cached_strain_ = 0;
 };
 
 }  // namespace hexcut::analysis

@@ -239,8 +239,29 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const C
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode assemble_conserving_force(DM dm, const topology::DofLayout& D, CellData& C, Vec u0,
-                                    Vec u1, Vec f, double energy[2]) {
+PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& D, const CellData& C,
+                                       Vec u, std::vector<double>* d) {
+  PetscFunctionBeginUser;
+  Vec ul;
+  PetscCall(DMGetLocalVector(dm, &ul));
+  PetscCall(global_to_local(dm, u, ul));
+  const PetscScalar* a;
+  PetscCall(VecGetArrayRead(ul, &a));
+  double x24[24], u24[24];
+  element::corner_positions(C.h, nullptr, x24);
+  d->resize(24 * D.cells.size());
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    element::gather_cell(a, D.cell_corners[e].data(), u24);
+    element::current_corotated_displacement(C.h, x24, u24, &(*d)[24 * e]);
+  }
+  PetscCall(VecRestoreArrayRead(ul, &a));
+  PetscCall(DMRestoreLocalVector(dm, &ul));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& D, CellData& C,
+                                       const std::vector<double>& d0, Vec u0, Vec u1, Vec f,
+                                       double energy[2]) {
   PetscFunctionBeginUser;
   Vec l0, l1, fl;
   PetscCall(DMGetLocalVector(dm, &l0));
@@ -261,8 +282,8 @@ PetscErrorCode assemble_conserving_force(DM dm, const topology::DofLayout& D, Ce
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(a0, D.cell_corners[e].data(), v0);
     element::gather_cell(a1, D.cell_corners[e].data(), v1);
-    const auto r =
-        element::conserving_force(cell_stiffness(C, e, buffer), C.h, x24, v0, v1, fe);
+    const auto r = element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e],
+                                           v0, v1, fe);
     std::copy(r.rotation, r.rotation + 9, &C.rotation[9 * e]);
     energy[0] += r.energy0;
     energy[1] += r.energy1;

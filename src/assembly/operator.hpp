@@ -89,12 +89,19 @@ PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& c
 PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout,
                                     const CellData& cells, double stiffness_weight, Vec b);
 
-/// f = sum over cells of the energy-conserving corotational force of the step u0 -> u1
-/// (element::conserving_force, doc/theory.md "Energy-conserving step"); f is overwritten.
-/// Sets each local cell's rotation to that of the mid-point (u0 + u1)/2, the operator of
-/// the step's iteration. energy[0], energy[1]: this rank's strain energy at u0 and u1 [J].
-PetscErrorCode assemble_conserving_force(DM dm, const topology::DofLayout& layout, CellData& cells,
-                                    Vec u0, Vec u1, Vec f, double energy[2]);
+/// The corotated displacements d = R^T (x + u) - x of the local cells at the global
+/// displacement u (24 per cell, R of each cell's own u), for assemble_midpoint_force.
+PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& layout,
+                                       const CellData& cells, Vec u, std::vector<double>* d);
+
+/// f = sum over cells of the mid-point corotational force of the step u0 -> u1
+/// (element::midpoint_force, doc/theory.md "Mid-point corotational step"); f is
+/// overwritten. d0: corotated_displacements at u0. Sets each local cell's rotation to that
+/// of the mid-point (u0 + u1)/2, the operator of the step's iteration. energy[0],
+/// energy[1]: this rank's strain energy at u0 and u1 [J].
+PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& layout, CellData& cells,
+                                       const std::vector<double>& d0, Vec u0, Vec u1, Vec f,
+                                       double energy[2]);
 
 /// Reference positions of the owned copies as a global vector (bs 3), for rigid-body
 /// modes and output.

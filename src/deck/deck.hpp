@@ -110,8 +110,8 @@ struct Analysis {
   enum class Type { static_, dynamic };
   enum class Formulation { linear, corotational };
   enum class Mass { lumped, consistent };
-  // dynamic corotational: rotations iterated within each step by the energy-conserving
-  // scheme (doc/theory.md "Energy-conserving step"), or lagged: taken from the previous
+  // dynamic corotational: rotations iterated within each step by the mid-point scheme
+  // (doc/theory.md "Mid-point corotational step"), or lagged: taken from the previous
   // step, one solve per step (the theses' real-time mode; not energy-consistent)
   enum class Rotations { iterated, lagged };
   Type type = Type::static_;

@@ -109,27 +109,31 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
   rotate_blocks(R, t, f24);
 }
 
-/// What conserving_force() found besides the force.
-struct ConservingForce {
+/// What midpoint_force() found besides the force.
+struct MidpointForce {
   double energy0 = 0.0, energy1 = 0.0;  ///< strain energy 1/2 d^T K d at u0 and u1 [J]
-  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< R of the mid-point (u0 + u1)/2
-  bool corrected = false;  ///< the discrete-gradient term was added (a deforming step)
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< R_m of the mid-point (u0 + u1)/2
 };
 
-/// Energy-conserving corotational force of one cell over a time step from u0 to u1
-/// (doc/theory.md "Energy-conserving step"; Simo & Tarnow 1992, Gonzalez 2000). With
-/// d = R^T (x + u) - x (R the polar rotation of each configuration), dbar = (d0 + d1)/2
-/// and R_m the rotation of the mid-point configuration:
-///   f = R_m^ K dbar - theta x z + s g,
-/// theta x z the infinitesimal rotation of the mid-point corners z (centroid-relative) that
-/// carries the moment of R_m^ K dbar, so f has neither resultant nor moment about the
-/// mid-point configuration (linear and angular momentum are conserved by the mid-point
-/// rule); g the step u1 - u0 less its rigid part (least-squares translation and rotation
-/// of z); s such that f . (u1 - u0) = W(u1) - W(u0) exactly, W = 1/2 d^T K d. When the
-/// step is rigid to round-off (|g| <= 1e-12 |d|) the correction is left out: then both
-/// sides vanish. K: 24x24 cell stiffness; h: cell edge [m]; x24: reference corners; u0,
-/// u1: corner displacements [m]; f24: the force [N].
-ConservingForce conserving_force(const double* K, double h, const double* x24, const double* u0,
-                                 const double* u1, double* f24);
+/// Mean internal force of one cell over a time step from u0 to u1 (doc/theory.md
+/// "Mid-point corotational step"; the mid-point form of Crisfield, Galvanetto & Jelenic
+/// 1997):
+///   f = R_m^ K dbar - theta x z,   dbar = (d(u0) + d(u1))/2,
+/// d = R^T (x + u) - x with R the polar rotation of each end, R_m that of the mid-point
+/// configuration, and theta x z the infinitesimal rotation of the mid-point corners z
+/// (centroid-relative) with the moment of R_m^ K dbar: f has neither resultant nor moment
+/// about the mid-point configuration, so the mid-point rule conserves linear and angular
+/// momentum, and a rigid step (which moves the mid-point corners by an infinitesimal
+/// rotation) does no work. f . (u1 - u0) equals W(u1) - W(u0), W = 1/2 d^T K d, up to
+/// terms of second order in the step's rotation times its change of d (not exactly).
+/// K: 24x24 cell stiffness; h: cell edge [m]; x24: reference corners (cell-local);
+/// d0: the corotated displacement at u0 (current_corotated_displacement, which a step
+/// computes once); u0, u1: corner displacements [m]; f24: the force [N].
+MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
+                             const double* u0, const double* u1, double* f24);
+
+/// d = R^T (x + u) - x with R the polar rotation of the cell's own centre deformation
+/// gradient (as corotated_displacement; h: cell edge [m]).
+void current_corotated_displacement(double h, const double* x24, const double* u24, double* d24);
 
 }  // namespace hexcut::element
