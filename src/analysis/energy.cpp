@@ -30,8 +30,9 @@ void EnergyMonitor::add(const StepEnergy& e, std::int64_t step, double t) {
                   "energy check: by step %lld (t = %g s) the time integration created %.4g J, "
                   "more than analysis.energy_tolerance = %g times the energy supplied (%.4g J: "
                   "initial %.4g J + work of loads and supports %.4g J); kinetic + strain energy "
-                  "is now %.4g J. The step is not energy-consistent: use analysis.rotations: "
-                  "iterated (the default) or a smaller analysis.dt",
+                  "is now %.4g J. The time integration is not energy-consistent here: with "
+                  "analysis.rotations: lagged use iterated (the default), else a smaller "
+                  "analysis.dt (doc/theory.md, \"Energy balance\")",
                   (long long)step, t, created_, tolerance_, supplied_, initial_, max_work_,
                   energy_);
     throw SolverError(msg);
