@@ -243,8 +243,7 @@ solve::SolveRecord Simulation::linearized_step(State& s, Vec u_new) {
   return solve::solve(ksp_, b, u_new);
 }
 
-solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new,
-                                               Vec fbar) {
+solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar) {
   // The mid-point form of the step (doc/theory.md "Mid-point corotational step"): with
   // du = u - u_n and the Newmark velocity v_n+1 = (2/dt) du - v_n, the step solves
   //   r(u) = f(t_n) + f(t_n+1) - 2 f_alg(u_n, u) - a0 M (du - dt v_n) - a1 D du = 0
@@ -318,8 +317,7 @@ solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u
                     "corotational step %lld (t = %g s) did not converge: relative change %.3g > "
                     "analysis.tolerance %g and residual %.3g > 2 solver.rtol after "
                     "analysis.max_iterations = %d iterations (try a smaller analysis.dt)",
-                    (long long)(s.step + 1), t1, change, an.tolerance, rn / bn,
-                    an.max_iterations);
+                    (long long)(s.step + 1), t1, change, an.tolerance, rn / bn, an.max_iterations);
       throw SolverError(msg);
     }
     check_petsc(VecCopy(u_new, u_prev), "VecCopy");
@@ -364,8 +362,7 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
   check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, tmp),
               "assemble_loads");
   check_petsc(VecAXPY(loads, 1.0, tmp), "VecAXPY");
-  const bool midpoint =
-      corotational() && an.rotations == deck::Analysis::Rotations::iterated;
+  const bool midpoint = corotational() && an.rotations == deck::Analysis::Rotations::iterated;
   solve::SolveRecord rec;
   if (midpoint) {
     rec = midpoint_step(s, loads, u_new, fbar);
@@ -510,8 +507,12 @@ double Simulation::strain_energy(Vec u) {
   return w;
 }
 
-double Simulation::kinetic_energy(const State& s) { return kinetic(s.v); }
+double Simulation::kinetic_energy(const State& s) {
+  return kinetic(s.v);
+}
 
-double Simulation::elastic_energy(const State& s) { return strain_energy(s.u); }
+double Simulation::elastic_energy(const State& s) {
+  return strain_energy(s.u);
+}
 
 }  // namespace hexcut::analysis

@@ -282,8 +282,8 @@ PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& D, Cell
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(a0, D.cell_corners[e].data(), v0);
     element::gather_cell(a1, D.cell_corners[e].data(), v1);
-    const auto r = element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e],
-                                           v0, v1, fe);
+    const auto r =
+        element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e], v0, v1, fe);
     std::copy(r.rotation, r.rotation + 9, &C.rotation[9 * e]);
     energy[0] += r.energy0;
     energy[1] += r.energy1;

@@ -802,7 +802,8 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
         c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
     }
   } else {
-    for (const char* k : {"dt", "steps", "end_time", "rayleigh", "mass", "rotations", "energy_tolerance"})
+    for (const char* k :
+         {"dt", "steps", "end_time", "rayleigh", "mass", "rotations", "energy_tolerance"})
       if (n[k]) c.fail(n[k], std::string("'") + k + "' applies only to dynamic analyses");
   }
   return a;

@@ -111,7 +111,7 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
 
 /// What midpoint_force() found besides the force.
 struct MidpointForce {
-  double energy0 = 0.0, energy1 = 0.0;  ///< strain energy 1/2 d^T K d at u0 and u1 [J]
+  double energy0 = 0.0, energy1 = 0.0;               ///< strain energy 1/2 d^T K d at u0 and u1 [J]
   double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< R_m of the mid-point (u0 + u1)/2
 };
 
