@@ -11,7 +11,7 @@ import tempfile
 
 from benchlib import ENV, HEXCUT, ROOT, cube_rods
 
-COMMON = """analysis: {{type: dynamic, formulation: corotational, dt: {dt}, steps: {steps}, rayleigh: [2.0, 0.0]}}
+COMMON = """analysis: {{type: dynamic, formulation: corotational, rotations: lagged, dt: {dt}, steps: {steps}, rayleigh: [2.0, 0.0]}}
 solver: {{type: gmg-cycles, cycles: 2}}
 output: {{directory: {out}, name: {name}, every: 1000, fields: [displacement]}}
 """

@@ -1,6 +1,8 @@
 """Dynamic corotational steps on the Stanford bunny (~270k cells): per step the
 rotations, the fine operator data and every Galerkin coarse block are rebuilt, then 2
-V-cycles (solver gmg-cycles) solve the Newmark system. Prints steps/s for 1 and 2 ranks.
+V-cycles (solver gmg-cycles) solve the Newmark system, once per step: rotations: lagged,
+the theses' real-time mode (the default, iterated rotations, solves 3-4 times per step;
+doc/theory.md "Mid-point corotational step"). Prints steps/s for 1 and 2 ranks.
   /usr/bin/python3 scripts/bench/dynamic_bunny.py [--h 0.0009] [--steps 10] [--ranks 1 2]
       [--options "-gmg_rebuild_tol 1e-2"]   (extra PETSc/hexcut options, one run each)"""
 import argparse
@@ -17,7 +19,7 @@ geometry: [{{add: {{mesh: {{file: {mesh}, scale: 0.01}}}}}}]
 boundary:
   fixed: [{{where: {{half_space: {{point: [0, 0.003, 0], normal: [0, 1, 0]}}}}}}]
   gravity: [0, -9.81, 0]
-analysis: {{type: dynamic, formulation: corotational, dt: 0.005, steps: {steps}}}
+analysis: {{type: dynamic, formulation: corotational, rotations: lagged, dt: 0.005, steps: {steps}}}
 solver: {{type: gmg-cycles, cycles: 2}}
 output: {{directory: {out}, name: bunny, every: 1000, fields: [displacement]}}
 """

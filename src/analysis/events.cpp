@@ -16,6 +16,9 @@ const Events& events() {
     // transfer, and the new solver with its multigrid hierarchy).
     PetscLogEventRegister("hexcutCutLinks", id, &r.cut_links);
     PetscLogEventRegister("hexcutRebuild", id, &r.rebuild);
+    // Dynamics: the mid-point internal forces of the corotational step and the energy
+    // terms of each step (doc/theory.md "Energy balance").
+    PetscLogEventRegister("hexcutEnergy", id, &r.energy);
     return r;
   }();
   return e;

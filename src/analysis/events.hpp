@@ -6,7 +6,7 @@
 namespace hexcut::analysis {
 
 struct Events {
-  PetscLogEvent setup, assembly, solve, stress, output, cut_links, rebuild;
+  PetscLogEvent setup, assembly, solve, stress, output, cut_links, rebuild, energy;
 };
 
 /// Registers the events once (idempotent) and returns them.

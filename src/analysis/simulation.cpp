@@ -1,6 +1,7 @@
 #include "analysis/simulation.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 #include "analysis/events.hpp"
 #include "common/errors.hpp"
@@ -204,7 +205,7 @@ void Simulation::initial_acceleration(State& s) {
     throw SolverError("initial acceleration (mass solve) failed: " + solve::reason_string(reason));
 }
 
-solve::SolveRecord Simulation::newmark_step(State& s) {
+solve::SolveRecord Simulation::linearized_step(State& s, Vec u_new) {
   const auto& an = deck_.analysis;
   const auto c = element::newmark_coefficients(an.dt);
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;
@@ -213,10 +214,8 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
                                     c.a0 + c.a1 * an.rayleigh_mass, lumped};
   if (corotational()) refresh_rotations(s.u);
   if (corotational() || !assembled_) assemble(w);
-  // t = n dt, not a running sum: summing dt drifts (0.1 + 0.1 + ... = 2.9999999999999583)
-  // and then a time that a user asks for (ParaView, a cut time) falls on the step before.
   const double t1 = double(s.step + 1) * an.dt;
-  ScratchVec b(model_.dm), hist(model_.dm), tmp(model_.dm), u_new(model_.dm);
+  ScratchVec b(model_.dm), hist(model_.dm), tmp(model_.dm);
   auto& M = model_;
   check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, b),
               "assemble_loads");
@@ -240,10 +239,136 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
       assembly::constrain_rhs(M.dm, M.layout, M.cells, w, M.boundary.constraints, t1, 1.0, b),
       "constrain_rhs");
   check_petsc(VecCopy(s.u, u_new), "VecCopy");
-  solve::SolveRecord rec;
+  EventScope scope(events().solve);
+  return solve::solve(ksp_, b, u_new);
+}
+
+solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar) {
+  // The mid-point form of the step (doc/theory.md "Mid-point corotational step"): with
+  // du = u - u_n and the Newmark velocity v_n+1 = (2/dt) du - v_n, the step solves
+  //   r(u) = f(t_n) + f(t_n+1) - 2 f_alg(u_n, u) - a0 M (du - dt v_n) - a1 D du = 0
+  // on the free DOFs (D = alpha1 M + alpha2 K^). Each iteration solves
+  //   A u_k+1 = A u_k + r(u_k)   (prescribed rows: u_k+1 = u0(t_n+1))
+  // with the operator A = a0 M + a1 D + K^ of the solver, its rotations those of the
+  // mid-point between u_n and the predictor.
+  const auto& an = deck_.analysis;
+  const auto c = element::newmark_coefficients(an.dt);
+  const bool lumped = an.mass == deck::Analysis::Mass::lumped;
+  const assembly::OperatorWeights w{1.0 + c.a1 * an.rayleigh_stiffness,
+                                    c.a0 + c.a1 * an.rayleigh_mass, lumped};
+  const assembly::OperatorWeights inertia{c.a1 * an.rayleigh_stiffness,
+                                          c.a0 + c.a1 * an.rayleigh_mass, lumped};
+  const double t1 = double(s.step + 1) * an.dt;
+  auto& M = model_;
+  ScratchVec fixed(M.dm), b(M.dm), r(M.dm), du(M.dm), u_prev(M.dm);
+  // The part of r that does not change within the step: f(t_n) + f(t_n+1) + a0 dt M v_n.
+  check_petsc(assembly::apply(M.dm, M.layout, M.cells, {0.0, c.a0 * an.dt, lumped}, s.v, fixed),
+              "apply");
+  check_petsc(VecAXPY(fixed, 1.0, load_sum), "VecAXPY");
+  // Predictor: constant velocity, and the prescribed values at t_n+1.
+  check_petsc(VecWAXPY(u_new, an.dt, s.v, s.u), "VecWAXPY");
+  check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 1.0, u_new),
+              "set_prescribed_values");
+  solve::SolveRecord total;
+  double change = 0.0, energy[2];
+  solves_ = 0;
   {
-    EventScope scope(events().solve);
-    rec = solve::solve(ksp_, b, u_new);
+    EventScope scope(events().energy);
+    check_petsc(assembly::corotated_displacements(M.dm, M.layout, M.cells, s.u, &start_d_),
+                "corotated_displacements");
+  }
+  for (;;) {
+    {
+      EventScope scope(events().energy);
+      check_petsc(assembly::assemble_midpoint_force(M.dm, M.layout, M.cells, start_d_, s.u, u_new,
+                                                    fbar, energy),
+                  "assemble_midpoint_force");
+    }
+    // The operator (and preconditioner) of the predictor's mid-point serves the whole
+    // step: b below uses that same operator, so the iteration still converges to r = 0,
+    // and a further iteration costs a solve, not an assembly and preconditioner set-up.
+    // (The matrix-free gmg operator reads the current rotations; its hierarchy stays.)
+    if (solves_ == 0) assemble(w);
+    // r = fixed - 2 f_alg - (a0 + a1 alpha1) M du - a1 alpha2 K^ du; no equation on the
+    // prescribed rows.
+    check_petsc(VecWAXPY(du, -1.0, s.u, u_new), "VecWAXPY");
+    check_petsc(assembly::apply(M.dm, M.layout, M.cells, inertia, du, r), "apply");
+    check_petsc(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar), "VecAXPBYPCZ");
+    check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 0.0, r),
+                "set_prescribed_values");
+    // b = A u_k + r with the solver's own operator (constrained: identity rows).
+    Mat A;
+    check_petsc(KSPGetOperators(ksp_, &A, nullptr), "KSPGetOperators");
+    check_petsc(MatMult(A, u_new, b), "MatMult");
+    check_petsc(VecAXPY(b, 1.0, r), "VecAXPY");
+    check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 1.0, b),
+                "set_prescribed_values");
+    // Converged when the last update was below the tolerance, or when the residual is as
+    // small as a linear solve leaves it (||b - A u|| <= rtol ||b||; twice that, so that a
+    // solve that just met it counts): below that, updates are the linear solver's noise,
+    // which the relative change could not tell from progress.
+    PetscReal rn = 0, bn = 0;
+    check_petsc(VecNorm(r, NORM_2, &rn), "VecNorm");
+    check_petsc(VecNorm(b, NORM_2, &bn), "VecNorm");
+    if ((solves_ > 0 && change <= an.tolerance) || rn <= 2 * deck_.solver.rtol * bn) break;
+    if (solves_ == an.max_iterations) {
+      char msg[400];
+      std::snprintf(msg, sizeof msg,
+                    "corotational step %lld (t = %g s) did not converge: relative change %.3g > "
+                    "analysis.tolerance %g and residual %.3g > 2 solver.rtol after "
+                    "analysis.max_iterations = %d iterations (try a smaller analysis.dt)",
+                    (long long)(s.step + 1), t1, change, an.tolerance, rn / bn, an.max_iterations);
+      throw SolverError(msg);
+    }
+    check_petsc(VecCopy(u_new, u_prev), "VecCopy");
+    solve::SolveRecord rec;
+    {
+      EventScope scope(events().solve);
+      rec = solve::solve(ksp_, b, u_new);
+    }
+    ++solves_;
+    total.iterations += rec.iterations;
+    total.setup_seconds += rec.setup_seconds;
+    total.solve_seconds += rec.solve_seconds;
+    total.residual = rec.residual;
+    total.residual_norm = rec.residual_norm;
+    total.reason = rec.reason;
+    PetscReal dk = 0, dn = 0;
+    check_petsc(VecAXPY(u_prev, -1.0, u_new), "VecAXPY");
+    check_petsc(VecNorm(u_prev, NORM_2, &dk), "VecNorm");
+    check_petsc(VecWAXPY(du, -1.0, s.u, u_new), "VecWAXPY");
+    check_petsc(VecNorm(du, NORM_2, &dn), "VecNorm");
+    change = dn > 0 ? dk / dn : dk;
+  }
+  // fbar and the energies are those of the converged u_n+1.
+  MPI_Allreduce(MPI_IN_PLACE, energy, 2, MPI_DOUBLE, MPI_SUM, comm_);
+  energy_.strain0 = energy[0];
+  energy_.strain1 = energy[1];
+  return total;
+}
+
+solve::SolveRecord Simulation::newmark_step(State& s) {
+  const auto& an = deck_.analysis;
+  const double t0 = double(s.step) * an.dt;
+  // t = n dt, not a running sum: summing dt drifts (0.1 + 0.1 + ... = 2.9999999999999583)
+  // and then a time that a user asks for (ParaView, a cut time) falls on the step before.
+  const double t1 = double(s.step + 1) * an.dt;
+  auto& M = model_;
+  ScratchVec u0(M.dm), v0(M.dm), loads(M.dm), tmp(M.dm), u_new(M.dm), fbar(M.dm);
+  check_petsc(VecCopy(s.u, u0), "VecCopy");
+  check_petsc(VecCopy(s.v, v0), "VecCopy");
+  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t0, 1.0, loads),
+              "assemble_loads");
+  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, tmp),
+              "assemble_loads");
+  check_petsc(VecAXPY(loads, 1.0, tmp), "VecAXPY");
+  const bool midpoint = corotational() && an.rotations == deck::Analysis::Rotations::iterated;
+  solve::SolveRecord rec;
+  if (midpoint) {
+    rec = midpoint_step(s, loads, u_new, fbar);
+  } else {
+    rec = linearized_step(s, u_new);
+    solves_ = 1;
   }
   // v, a from the consistent Newmark update (in place).
   PetscInt n;
@@ -262,34 +387,132 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
   check_petsc(VecCopy(u_new, s.u), "VecCopy");
   s.time = t1;
   s.step += 1;
+  EventScope scope(events().energy);
+  if (midpoint) {
+    account_energy(u0, v0, s, loads, fbar, energy_.strain0, energy_.strain1);
+  } else {
+    const double strain0 = cached_step_ == s.step - 1 ? cached_strain_ : strain_energy(u0);
+    account_energy(u0, v0, s, loads, nullptr, strain0, strain_energy(s.u));
+  }
   return rec;
 }
 
+void Simulation::internal_force(Vec u, Vec f) {
+  auto& M = model_;
+  if (corotational()) refresh_rotations(u);
+  check_petsc(assembly::apply(M.dm, M.layout, M.cells, {1.0, 0.0, true}, u, f), "apply");
+  if (corotational()) {
+    ScratchVec r(M.dm);
+    check_petsc(VecSet(r, 0.0), "VecSet");
+    check_petsc(assembly::add_corotational_rhs(M.dm, M.layout, M.cells, 1.0, r), "rhs");
+    check_petsc(VecAXPY(f, -1.0, r), "VecAXPY");
+  }
+}
+
+void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar,
+                                double strain0, double strain1) {
+  const auto& an = deck_.analysis;
+  const bool lumped = an.mass == deck::Analysis::Mass::lumped;
+  auto& M = model_;
+  StepEnergy& e = energy_;
+  e = StepEnergy{};
+  e.kinetic0 = cached_step_ == s.step - 1 ? cached_kinetic_ : kinetic(v0);
+  e.kinetic1 = kinetic(s.v);
+  e.strain0 = strain0;
+  e.strain1 = strain1;
+  cached_step_ = s.step;
+  cached_kinetic_ = e.kinetic1;
+  cached_strain_ = e.strain1;
+  ScratchVec du(M.dm), Ddu(M.dm);
+  check_petsc(VecWAXPY(du, -1.0, u0, s.u), "VecWAXPY");
+  PetscScalar x;
+  check_petsc(VecDot(du, load_sum, &x), "VecDot");
+  e.external_work = 0.5 * x;
+  check_petsc(VecSet(Ddu, 0.0), "VecSet");
+  if (an.rayleigh_mass != 0.0 || an.rayleigh_stiffness != 0.0) {
+    // D with the rotations the step's operator used.
+    check_petsc(assembly::apply(M.dm, M.layout, M.cells,
+                                {an.rayleigh_stiffness, an.rayleigh_mass, lumped}, du, Ddu),
+                "apply");
+    check_petsc(VecDot(du, Ddu, &x), "VecDot");
+    e.dissipated = x / an.dt;
+  }
+  // Supports do work only where they move: reactions rho = M a_mean + D v_mean + f_mean
+  // - f_ext,mean on the prescribed DOFs (the equation of motion with the reaction).
+  const auto& rows = M.boundary.constraints.rows;
+  const PetscScalar* d;
+  check_petsc(VecGetArrayRead(du, &d), "VecGetArrayRead");
+  PetscInt first;
+  check_petsc(VecGetOwnershipRange(du, &first, nullptr), "VecGetOwnershipRange");
+  int moving = 0;
+  for (PetscInt r : rows) moving |= d[r - first] != 0.0;
+  check_petsc(VecRestoreArrayRead(du, &d), "VecRestoreArrayRead");
+  MPI_Allreduce(MPI_IN_PLACE, &moving, 1, MPI_INT, MPI_LOR, comm_);
+  if (moving) {
+    ScratchVec rho(M.dm), tmp(M.dm);
+    check_petsc(VecWAXPY(tmp, -1.0, v0, s.v), "VecWAXPY");
+    check_petsc(assembly::apply(M.dm, M.layout, M.cells, {0.0, 1.0 / an.dt, lumped}, tmp, rho),
+                "apply");
+    check_petsc(VecAXPBYPCZ(rho, 1.0 / an.dt, -0.5, 1.0, Ddu, load_sum), "VecAXPBYPCZ");
+    if (fbar) {
+      check_petsc(VecAXPY(rho, 1.0, fbar), "VecAXPY");
+    } else {
+      internal_force(u0, tmp);
+      check_petsc(VecAXPY(rho, 0.5, tmp), "VecAXPY");
+      internal_force(s.u, tmp);
+      check_petsc(VecAXPY(rho, 0.5, tmp), "VecAXPY");
+    }
+    const PetscScalar* p;
+    check_petsc(VecGetArrayRead(rho, &p), "VecGetArrayRead");
+    check_petsc(VecGetArrayRead(du, &d), "VecGetArrayRead");
+    double w = 0.0;
+    for (PetscInt r : rows) w += d[r - first] * p[r - first];
+    check_petsc(VecRestoreArrayRead(du, &d), "VecRestoreArrayRead");
+    check_petsc(VecRestoreArrayRead(rho, &p), "VecRestoreArrayRead");
+    MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_);
+    e.support_work = w;
+  }
+}
+
 void Simulation::run_dynamic(State& s, const Observer& obs) {
+  EnergyMonitor monitor(deck_.analysis.energy_tolerance);
   while (s.step < deck_.analysis.steps) {
     const auto rec = newmark_step(s);
+    monitor.add(energy_, s.step, s.time);
     if (obs.on_solve) obs.on_solve(s, rec);
     if (obs.on_step) obs.on_step(s);
   }
 }
 
-double Simulation::kinetic_energy(const State& s) {
+double Simulation::kinetic(Vec v) {
   const bool lumped = deck_.analysis.mass == deck::Analysis::Mass::lumped;
   ScratchVec Mv(model_.dm);
-  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0, lumped}, s.v, Mv),
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0, lumped}, v, Mv),
               "apply");
   PetscScalar e;
-  check_petsc(VecDot(s.v, Mv, &e), "VecDot");
+  check_petsc(VecDot(v, Mv, &e), "VecDot");
   return 0.5 * e;
 }
 
+double Simulation::strain_energy(Vec u) {
+  Vec ul;
+  check_petsc(DMGetLocalVector(model_.dm, &ul), "DMGetLocalVector");
+  check_petsc(assembly::global_to_local(model_.dm, u, ul), "global_to_local");
+  const PetscScalar* a;
+  check_petsc(VecGetArrayRead(ul, &a), "VecGetArrayRead");
+  double w = assembly::strain_energy_local(model_.layout, model_.cells, a, corotational());
+  check_petsc(VecRestoreArrayRead(ul, &a), "VecRestoreArrayRead");
+  check_petsc(DMRestoreLocalVector(model_.dm, &ul), "DMRestoreLocalVector");
+  MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return w;
+}
+
+double Simulation::kinetic_energy(const State& s) {
+  return kinetic(s.v);
+}
+
 double Simulation::elastic_energy(const State& s) {
-  ScratchVec Ku(model_.dm);
-  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku),
-              "apply");
-  PetscScalar e;
-  check_petsc(VecDot(s.u, Ku, &e), "VecDot");
-  return 0.5 * e;
+  return strain_energy(s.u);
 }
 
 }  // namespace hexcut::analysis

@@ -7,6 +7,7 @@
 
 #include <functional>
 
+#include "analysis/energy.hpp"
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
 #include "multigrid/gmg.hpp"
@@ -37,12 +38,23 @@ class Simulation {
 
   /// Sets the initial acceleration from M a0 = f(t0) - K u0 + b^ (prescribed rows: 0).
   void initial_acceleration(State& state);
-  /// Dynamic analysis from state.step to deck.analysis.steps.
+  /// Dynamic analysis from state.step to deck.analysis.steps, with the energy check
+  /// (EnergyMonitor, analysis.energy_tolerance).
   void run_dynamic(State& state, const Observer& observer);
-  /// One Newmark step (exposed for tests).
+  /// One time step (exposed for tests): Newmark beta = 1/4, gamma = 1/2 for linear runs
+  /// and lagged rotations (one solve); for corotational runs with analysis.rotations:
+  /// iterated the mid-point step (doc/theory.md "Mid-point corotational step"), which
+  /// iterates until ||u_k+1 - u_k|| <= tolerance ||u_k+1 - u_n|| and throws SolverError
+  /// after analysis.max_iterations. The record sums the Krylov iterations and times of the
+  /// step's solves (residuals: the last solve's). Also fills last_step_energy().
   solve::SolveRecord newmark_step(State& state);
+  /// The energy terms of the last newmark_step (doc/theory.md "Energy balance").
+  const StepEnergy& last_step_energy() const { return energy_; }
+  /// Linear solves of the last newmark_step (1 unless rotations are iterated).
+  int last_step_solves() const { return solves_; }
 
-  /// Energies of a state: kinetic 1/2 v^T M v and elastic 1/2 u^T K^ u (current rotations).
+  /// Energies of a state [J]: kinetic 1/2 v^T M v and strain sum_e 1/2 d^T K d with the
+  /// corotated displacement d of each cell (rotations from s.u; linear runs: 1/2 u^T K u).
   double kinetic_energy(const State& s);
   double elastic_energy(const State& s);
 
@@ -55,6 +67,17 @@ class Simulation {
  private:
   void assemble(const assembly::OperatorWeights& w);
   void refresh_rotations(Vec u);
+  /// One Newmark solve with the rotations of s.u (linear runs: identity).
+  solve::SolveRecord linearized_step(State& s, Vec u_new);
+  /// The mid-point corotational step; fbar: its mean internal force at the end.
+  solve::SolveRecord midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar);
+  double kinetic(Vec v);
+  double strain_energy(Vec u);
+  /// Fills energy_ for the step (u0, v0) -> (s.u, s.v). fbar: the step's mean internal
+  /// force, or null to compute (f(u0) + f(u1))/2; used only for support reactions.
+  void account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar, double strain0,
+                      double strain1);
+  void internal_force(Vec u, Vec f);
 
   MPI_Comm comm_;
   Model& model_;
@@ -63,6 +86,13 @@ class Simulation {
   std::unique_ptr<multigrid::Multigrid> mg_;
   KSP ksp_ = nullptr;
   bool assembled_ = false;
+  StepEnergy energy_;
+  int solves_ = 0;
+  std::vector<double> start_d_;  // mid-point step: corotated displacements at u_n per cell
+  // Kinetic and strain energy after the last step (for the next step's start): the state
+  // is the one this simulation left at step cached_step_ (-1: none).
+  std::int64_t cached_step_ = -1;
+  double cached_kinetic_ = 0, cached_strain_ = 0;
 };
 
 }  // namespace hexcut::analysis

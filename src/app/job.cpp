@@ -317,14 +317,15 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     out->record_solve(s.step, s.time, r);
   };
   bool stopped_early = false;
+  an::EnergyMonitor energy(deck.analysis.energy_tolerance);  // dynamics (doc/theory.md)
   obs.on_step = [&](const an::State& s) {
     PetscLogDouble now;
     PetscTime(&now);
     const double wall = now - t_loop;
     const double per_step = wall / double(s.step - first_step);
-    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  wall %s  eta %s\n",
+    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  %swall %s  eta %s\n",
                 (long long)s.step, (long long)total, s.time, (long long)last_its, last_res,
-                format_seconds(wall).c_str(),
+                dynamic ? (energy.summary() + "  ").c_str() : "", format_seconds(wall).c_str(),
                 format_seconds(per_step * double(total - s.step)).c_str());
     const bool last = s.step == total;
     const bool stop = max_steps > 0 && s.step - first_step >= max_steps && !last;
@@ -347,6 +348,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
         // the operator, preconditioner and output tables follow the new topology.
         if (cutter.pending()) apply_cuts(double(state.step + 1) * deck.analysis.dt);
         const auto rec = sim->newmark_step(state);
+        energy.add(sim->last_step_energy(), state.step, state.time);  // exit 3 if created
         obs.on_solve(state, rec);
         obs.on_step(state);
       }

@@ -101,6 +101,26 @@ void update_rotations(const topology::DofLayout& D, const double* u_local, CellD
   }
 }
 
+double strain_energy_local(const topology::DofLayout& D, const CellData& C, const double* u,
+                           bool corotational) {
+  double buffer[element::kElementMatrixSize], x24[24], u24[24], d[24], Kd[24], F[9], R[9];
+  element::corner_positions(C.h, nullptr, x24);
+  double w = 0.0;
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    element::gather_cell(u, D.cell_corners[e].data(), u24);
+    if (corotational) {
+      element::deformation_gradient_at_centre(u24, C.h, F);
+      element::polar_rotation(F, R);
+    } else {
+      std::copy(kIdentity, kIdentity + 9, R);
+    }
+    element::corotated_displacement(R, x24, u24, d);
+    element::element_matvec(cell_stiffness(C, e, buffer), d, Kd);
+    for (int i = 0; i < 24; ++i) w += 0.5 * d[i] * Kd[i];
+  }
+  return w;
+}
+
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
                              const topology::Partition& P, const topology::DofLayout& D, Mat* A) {
   PetscFunctionBeginUser;
@@ -216,6 +236,68 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const C
   PetscCall(DMLocalToGlobalBegin(dm, bl, ADD_VALUES, b));
   PetscCall(DMLocalToGlobalEnd(dm, bl, ADD_VALUES, b));
   PetscCall(DMRestoreLocalVector(dm, &bl));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& D, const CellData& C,
+                                       Vec u, std::vector<double>* d) {
+  PetscFunctionBeginUser;
+  Vec ul;
+  PetscCall(DMGetLocalVector(dm, &ul));
+  PetscCall(global_to_local(dm, u, ul));
+  const PetscScalar* a;
+  PetscCall(VecGetArrayRead(ul, &a));
+  double x24[24], u24[24];
+  element::corner_positions(C.h, nullptr, x24);
+  d->resize(24 * D.cells.size());
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    element::gather_cell(a, D.cell_corners[e].data(), u24);
+    element::current_corotated_displacement(C.h, x24, u24, &(*d)[24 * e]);
+  }
+  PetscCall(VecRestoreArrayRead(ul, &a));
+  PetscCall(DMRestoreLocalVector(dm, &ul));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& D, CellData& C,
+                                       const std::vector<double>& d0, Vec u0, Vec u1, Vec f,
+                                       double energy[2]) {
+  PetscFunctionBeginUser;
+  Vec l0, l1, fl;
+  PetscCall(DMGetLocalVector(dm, &l0));
+  PetscCall(DMGetLocalVector(dm, &l1));
+  PetscCall(DMGetLocalVector(dm, &fl));
+  PetscCall(global_to_local(dm, u0, l0));
+  PetscCall(global_to_local(dm, u1, l1));
+  PetscCall(VecSet(fl, 0.0));
+  const PetscScalar *a0, *a1;
+  PetscScalar* fa;
+  PetscCall(VecGetArrayRead(l0, &a0));
+  PetscCall(VecGetArrayRead(l1, &a1));
+  PetscCall(VecGetArray(fl, &fa));
+  double buffer[element::kElementMatrixSize], x24[24], v0[24], v1[24], fe[24];
+  element::corner_positions(C.h, nullptr, x24);
+  energy[0] = energy[1] = 0.0;
+  C.identity_rotations = false;
+  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+    element::gather_cell(a0, D.cell_corners[e].data(), v0);
+    element::gather_cell(a1, D.cell_corners[e].data(), v1);
+    const auto r =
+        element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e], v0, v1, fe);
+    std::copy(r.rotation, r.rotation + 9, &C.rotation[9 * e]);
+    energy[0] += r.energy0;
+    energy[1] += r.energy1;
+    element::scatter_add_cell(fe, D.cell_corners[e].data(), fa);
+  }
+  PetscCall(VecRestoreArray(fl, &fa));
+  PetscCall(VecRestoreArrayRead(l1, &a1));
+  PetscCall(VecRestoreArrayRead(l0, &a0));
+  PetscCall(VecSet(f, 0.0));
+  PetscCall(DMLocalToGlobalBegin(dm, fl, ADD_VALUES, f));
+  PetscCall(DMLocalToGlobalEnd(dm, fl, ADD_VALUES, f));
+  PetscCall(DMRestoreLocalVector(dm, &fl));
+  PetscCall(DMRestoreLocalVector(dm, &l1));
+  PetscCall(DMRestoreLocalVector(dm, &l0));
   PetscFunctionReturn(0);
 }
 

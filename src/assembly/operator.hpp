@@ -59,6 +59,14 @@ void set_identity_rotations(CellData& cells);
 /// of each cell's centre deformation gradient (design.md §4).
 void update_rotations(const topology::DofLayout& layout, const double* u_local, CellData& cells);
 
+/// Strain energy of the rank's cells, sum_e 1/2 d_e^T K_e d_e with the corotated
+/// displacement d_e = R^T (x + u) - x (doc/theory.md "Corotation"); R is computed here
+/// from u_local (polar factor of the centre deformation gradient) when `corotational`,
+/// else the identity, and CellData's stored rotations are not touched. [J] (local part;
+/// sum over ranks). Cells shared by no rank twice: each local cell once.
+double strain_energy_local(const topology::DofLayout& layout, const CellData& cells,
+                           const double* u_local, bool corotational);
+
 /// An AIJ matrix with block size 3, preallocated exactly for the copy adjacency.
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& copies,
                              const topology::Partition& partition,
@@ -80,6 +88,20 @@ PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& c
 /// (zero for identity rotations).
 PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout,
                                     const CellData& cells, double stiffness_weight, Vec b);
+
+/// The corotated displacements d = R^T (x + u) - x of the local cells at the global
+/// displacement u (24 per cell, R of each cell's own u), for assemble_midpoint_force.
+PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& layout,
+                                       const CellData& cells, Vec u, std::vector<double>* d);
+
+/// f = sum over cells of the mid-point corotational force of the step u0 -> u1
+/// (element::midpoint_force, doc/theory.md "Mid-point corotational step"); f is
+/// overwritten. d0: corotated_displacements at u0. Sets each local cell's rotation to that
+/// of the mid-point (u0 + u1)/2, the operator of the step's iteration. energy[0],
+/// energy[1]: this rank's strain energy at u0 and u1 [J].
+PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& layout, CellData& cells,
+                                       const std::vector<double>& d0, Vec u0, Vec u1, Vec f,
+                                       double energy[2]);
 
 /// Reference positions of the owned copies as a global vector (bs 3), for rigid-body
 /// modes and output.

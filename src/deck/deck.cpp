@@ -722,8 +722,8 @@ std::vector<Cut> parse_cuts(const Context& c, const YAML::Node& n) {
 
 Analysis parse_analysis(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "analysis",
-             {"type", "formulation", "load_steps", "tolerance", "max_iterations", "dt", "steps",
-              "end_time", "rayleigh", "mass"});
+             {"type", "formulation", "rotations", "load_steps", "tolerance", "max_iterations", "dt",
+              "steps", "end_time", "rayleigh", "mass", "energy_tolerance"});
   Analysis a;
   const auto type = n["type"] ? get_string(c, n["type"], "analysis.type") : "static";
   if (type == "static")
@@ -779,6 +779,19 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
       if (a.rayleigh_mass < 0 || a.rayleigh_stiffness < 0)
         c.fail(r, "rayleigh coefficients must be >= 0");
     }
+    if (n["rotations"]) {
+      const auto r = get_string(c, n["rotations"], "analysis.rotations");
+      if (r == "iterated")
+        a.rotations = Analysis::Rotations::iterated;
+      else if (r == "lagged")
+        a.rotations = Analysis::Rotations::lagged;
+      else
+        c.fail(n["rotations"], "analysis.rotations must be 'iterated' or 'lagged'");
+      if (a.formulation != Analysis::Formulation::corotational)
+        c.fail(n["rotations"], "analysis.rotations applies only to formulation: corotational");
+    }
+    if (n["energy_tolerance"])
+      a.energy_tolerance = positive(c, n["energy_tolerance"], "analysis.energy_tolerance");
     if (n["mass"]) {
       const auto m = get_string(c, n["mass"], "analysis.mass");
       if (m == "lumped")
@@ -789,7 +802,8 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
         c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
     }
   } else {
-    for (const char* k : {"dt", "steps", "end_time", "rayleigh", "mass"})
+    for (const char* k :
+         {"dt", "steps", "end_time", "rayleigh", "mass", "rotations", "energy_tolerance"})
       if (n[k]) c.fail(n[k], std::string("'") + k + "' applies only to dynamic analyses");
   }
   return a;

@@ -110,12 +110,21 @@ struct Analysis {
   enum class Type { static_, dynamic };
   enum class Formulation { linear, corotational };
   enum class Mass { lumped, consistent };
+  // dynamic corotational: rotations iterated within each step by the mid-point scheme
+  // (doc/theory.md "Mid-point corotational step"), or lagged: taken from the previous
+  // step, one solve per step (the theses' real-time mode; not energy-consistent)
+  enum class Rotations { iterated, lagged };
   Type type = Type::static_;
   Formulation formulation = Formulation::linear;
-  // static corotational: fixed-point iteration per load step
+  Rotations rotations = Rotations::iterated;
+  // corotational fixed-point iterations: per load step (static), per time step (dynamic)
   int load_steps = 1;
-  double tolerance = 1e-6;  // ||u_k+1 - u_k|| <= tolerance * ||u_k+1||
+  double tolerance = 1e-6;  // static: ||u_k+1 - u_k|| <= tolerance * ||u_k+1||; dynamic:
+                            // <= tolerance * ||u_k+1 - u_n|| (the step's increment)
   int max_iterations = 50;
+  // dynamic: stop (SolverError) when the energy the time integration created exceeds this
+  // fraction of the energy supplied (doc/theory.md "Energy balance")
+  double energy_tolerance = 0.1;
   // dynamic (Newmark beta=1/4, gamma=1/2)
   double dt = 0.0;                  // [s]
   int steps = 0;                    // number of time steps (from end_time / dt if given)

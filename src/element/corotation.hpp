@@ -109,4 +109,31 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
   rotate_blocks(R, t, f24);
 }
 
+/// What midpoint_force() found besides the force.
+struct MidpointForce {
+  double energy0 = 0.0, energy1 = 0.0;               ///< strain energy 1/2 d^T K d at u0 and u1 [J]
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< R_m of the mid-point (u0 + u1)/2
+};
+
+/// Mean internal force of one cell over a time step from u0 to u1 (doc/theory.md
+/// "Mid-point corotational step"; the mid-point form of Crisfield, Galvanetto & Jelenic
+/// 1997):
+///   f = R_m^ K dbar - theta x z,   dbar = (d(u0) + d(u1))/2,
+/// d = R^T (x + u) - x with R the polar rotation of each end, R_m that of the mid-point
+/// configuration, and theta x z the infinitesimal rotation of the mid-point corners z
+/// (centroid-relative) with the moment of R_m^ K dbar: f has neither resultant nor moment
+/// about the mid-point configuration, so the mid-point rule conserves linear and angular
+/// momentum, and a rigid step (which moves the mid-point corners by an infinitesimal
+/// rotation) does no work. f . (u1 - u0) equals W(u1) - W(u0), W = 1/2 d^T K d, up to
+/// terms of second order in the step's rotation times its change of d (not exactly).
+/// K: 24x24 cell stiffness; h: cell edge [m]; x24: reference corners (cell-local);
+/// d0: the corotated displacement at u0 (current_corotated_displacement, which a step
+/// computes once); u0, u1: corner displacements [m]; f24: the force [N].
+MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
+                             const double* u0, const double* u1, double* f24);
+
+/// d = R^T (x + u) - x with R the polar rotation of the cell's own centre deformation
+/// gradient (as corotated_displacement; h: cell edge [m]).
+void current_corotated_displacement(double h, const double* x24, const double* u24, double* d24);
+
 }  // namespace hexcut::element

@@ -1,0 +1,72 @@
+#include <Eigen/Dense>
+
+#include "element/corotation.hpp"
+#include "element/kinematics.hpp"
+
+namespace hexcut::element {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+Vec3 corner(const double* v24, int q) {
+  return Vec3(v24[3 * q], v24[3 * q + 1], v24[3 * q + 2]);
+}
+
+double dot24(const double* a, const double* b) {
+  double s = 0.0;
+  for (int k = 0; k < kElementDofs; ++k) s += a[k] * b[k];
+  return s;
+}
+
+}  // namespace
+
+void current_corotated_displacement(double h, const double* x24, const double* u24, double* d24) {
+  double F[9], R[9];
+  deformation_gradient_at_centre(u24, h, F);
+  polar_rotation(F, R);
+  corotated_displacement(R, x24, u24, d24);
+}
+
+MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
+                             const double* u0, const double* u1, double* f24) {
+  MidpointForce out;
+  double um[kElementDofs], F[9], d1[kElementDofs];
+  for (int k = 0; k < kElementDofs; ++k) um[k] = 0.5 * (u0[k] + u1[k]);
+  current_corotated_displacement(h, x24, u1, d1);
+  deformation_gradient_at_centre(um, h, F);
+  polar_rotation(F, out.rotation);
+  double Kd0[kElementDofs], Kd1[kElementDofs];
+  element_matvec(K, d0, Kd0);
+  element_matvec(K, d1, Kd1);
+  out.energy0 = 0.5 * dot24(d0, Kd0);
+  out.energy1 = 0.5 * dot24(d1, Kd1);
+  for (int k = 0; k < kElementDofs; ++k) Kd0[k] = 0.5 * (Kd0[k] + Kd1[k]);  // K dbar
+  rotate_blocks(out.rotation, Kd0, f24);
+
+  // Remove the moment of R_m K dbar about the mid-point corners z (centroid-relative):
+  // subtract the infinitesimal rotation theta x z with J theta = moment,
+  // J = sum (|z|^2 I - z z^T), which has the same moment and no resultant.
+  Vec3 z[kCorners], c = Vec3::Zero();
+  for (int q = 0; q < kCorners; ++q) {
+    z[q] = corner(x24, q) - corner(x24, 0) + corner(um, q);
+    c += z[q] / kCorners;
+  }
+  Vec3 moment = Vec3::Zero();
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  for (int q = 0; q < kCorners; ++q) {
+    z[q] -= c;
+    moment += z[q].cross(corner(f24, q));
+    J += z[q].squaredNorm() * Eigen::Matrix3d::Identity() - z[q] * z[q].transpose();
+  }
+  // A cell collapsed onto a line has a singular J; it keeps its (tiny) moment.
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * J.trace())) return out;
+  const Vec3 theta = ldlt.solve(moment);
+  for (int q = 0; q < kCorners; ++q) {
+    const Vec3 t = theta.cross(z[q]);
+    for (int i = 0; i < 3; ++i) f24[3 * q + i] -= t[i];
+  }
+  return out;
+}
+
+}  // namespace hexcut::element
