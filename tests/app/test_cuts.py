@@ -69,6 +69,10 @@ def main():
 
         # Stop after the cut (step 40 of 80), restart from the checkpoint: the cut topology
         # is rebuilt from the checkpoint's links and the run ends where the full one did.
+        # The example is corotational: the multigrid re-estimates its Chebyshev bounds every
+        # 10th rotation update counted from the start of each invocation (-gmg_eig_every), so
+        # the restarted run's preconditioner differs slightly and the two agree to far below
+        # the solver's rtol (1e-8), not bit for bit (with -gmg_eig_every 1 they do).
         d3 = tempdir()
         deck = os.path.join(SOURCE, "input/examples/cut_bar.yaml")
         rc3, out3, err3 = run([deck, "-hexcut_max_steps", "40"], cwd=d3)
@@ -78,7 +82,7 @@ def main():
             with h5py.File(f"{d}/results/cut_bar.h5", "r") as a, h5py.File(f"{d3}/results/cut_bar.h5", "r") as b:
                 x, y = a["steps/000080/displacement"][:], b["steps/000080/displacement"][:]
                 diff = np.abs(x - y).max() / np.abs(x).max() if x.shape == y.shape else 1.0
-        check(rc3 == 0 and rc4 == 0 and "16 cut links restored" in out4 and diff < 1e-12,
+        check(rc3 == 0 and rc4 == 0 and "16 cut links restored" in out4 and diff < 1e-10,
               f"restart after the cut: max rel. diff {diff:.1e}: {err3.strip()} {err4.strip()}")
 
     # A static deck whose cut leaves the tip unsupported: exit 3 naming the piece.
