@@ -130,22 +130,6 @@ class BoxTree {
   std::vector<Node> nodes_;
 };
 
-void check_indices(const TriangleMesh& mesh) {
-  const int nv = static_cast<int>(mesh.vertices.size());
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (int v : mesh.triangles[t]) {
-      if (v < 0 || v >= nv) {
-        throw std::invalid_argument("mesh solid: triangle " + std::to_string(t) +
-                                    " has vertex index " + std::to_string(v) +
-                                    " out of range [0, " + std::to_string(nv) + ")");
-      }
-    }
-  }
-  for (const auto& v : mesh.vertices) {
-    if (!v.allFinite()) throw std::invalid_argument("mesh solid: non-finite vertex");
-  }
-}
-
 // Coincident triangles (the same three positions): rep[t] is the first of t's group
 // (t itself for the first), or -1 for a triangle with two corners at one position;
 // same[t] says whether t runs round its corners in the same cyclic order as rep[t].
@@ -419,7 +403,7 @@ std::vector<int> nesting_depth(const TriangleMesh& mesh, const Pieces& pieces,
 }  // namespace
 
 SolidOrientation orient_solid(TriangleMesh& mesh) {
-  check_indices(mesh);
+  check_mesh_indices(mesh);
   auto& tris = mesh.triangles;
   const int nt = static_cast<int>(tris.size());
   const std::vector<int> canon = weld_positions(mesh.vertices);

@@ -77,19 +77,7 @@ Eigen::Vector3d closest_point(const Eigen::Vector3d& p, const Tri& t) {
 
 void check_mesh(const TriangleMesh& mesh) {
   if (mesh.triangles.empty()) throw std::invalid_argument("mesh solid: mesh has no triangles");
-  const int nv = static_cast<int>(mesh.vertices.size());
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (int v : mesh.triangles[t]) {
-      if (v < 0 || v >= nv) {
-        throw std::invalid_argument("mesh solid: triangle " + std::to_string(t) +
-                                    " has vertex index " + std::to_string(v) +
-                                    " out of range [0, " + std::to_string(nv) + ")");
-      }
-    }
-  }
-  for (const auto& v : mesh.vertices) {
-    if (!v.allFinite()) throw std::invalid_argument("mesh solid: non-finite vertex");
-  }
+  check_mesh_indices(mesh);
 }
 
 using Edge = std::pair<int, int>;  // directed

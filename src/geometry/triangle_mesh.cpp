@@ -330,4 +330,20 @@ double enclosed_volume(const TriangleMesh& mesh) {
   return six_v / 6.0;
 }
 
+void check_mesh_indices(const TriangleMesh& mesh) {
+  const int nv = static_cast<int>(mesh.vertices.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (int v : mesh.triangles[t]) {
+      if (v < 0 || v >= nv) {
+        throw std::invalid_argument("mesh solid: triangle " + std::to_string(t) +
+                                    " has vertex index " + std::to_string(v) +
+                                    " out of range [0, " + std::to_string(nv) + ")");
+      }
+    }
+  }
+  for (const auto& v : mesh.vertices) {
+    if (!v.allFinite()) throw std::invalid_argument("mesh solid: non-finite vertex");
+  }
+}
+
 }  // namespace hexcut::geometry

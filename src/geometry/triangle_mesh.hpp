@@ -34,6 +34,11 @@ TriangleMesh load_triangle_mesh(const std::string& path);
 /// non-finite arguments.
 void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translate);
 
+/// Checks what every use of a mesh relies on: each triangle's vertex indices lie in
+/// [0, vertices.size()) and every vertex is finite. Throws std::invalid_argument naming
+/// the first offending triangle (0-based) otherwise.
+void check_mesh_indices(const TriangleMesh& mesh);
+
 /// Bounding box of the vertices (of all vertices, referenced or not).
 Aabb bounds(const TriangleMesh& mesh);
 

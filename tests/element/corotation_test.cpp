@@ -12,13 +12,10 @@ using test::Mat24;
 using test::Mat3;
 using test::Vec24;
 
-constexpr double kH = 0.5, kLambda = 3.0, kMu = 1.7;
-
-Mat24 cell_K() {
-  Mat24 K;
-  cell_stiffness(reference_matrices(), kH, kLambda, kMu, K.data());
-  return K;
-}
+using test::cell_K;
+using test::kH;
+using test::kLambda;
+using test::kMu;
 
 Mat24 block_diag(const Mat3& R) {
   Mat24 Rh = Mat24::Zero();

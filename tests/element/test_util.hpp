@@ -4,11 +4,23 @@
 #include <Eigen/Dense>
 #include <random>
 
+#include "element/element.hpp"
+
 namespace hexcut::element::test {
 
 using Mat24 = Eigen::Matrix<double, 24, 24, Eigen::RowMajor>;
 using Vec24 = Eigen::Matrix<double, 24, 1>;
 using Mat3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+/// The test cell of the corotation tests: edge kH (m), Lame parameters kLambda, kMu (Pa).
+constexpr double kH = 0.5, kLambda = 3.0, kMu = 1.7;
+
+/// Stiffness matrix of the test cell (24 x 24, row-major).
+inline Mat24 cell_K() {
+  Mat24 K;
+  cell_stiffness(reference_matrices(), kH, kLambda, kMu, K.data());
+  return K;
+}
 
 inline Eigen::Map<const Mat24> as_mat24(const double* p) {
   return Eigen::Map<const Mat24>(p);
