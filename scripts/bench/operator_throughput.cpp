@@ -60,11 +60,11 @@ int main(int argc, char** argv) {
         assembly::create_matrix(PETSC_COMM_WORLD, model.copies, model.partition, model.layout, &A));
     PetscCall(assembly::assemble_matrix(model.layout, model.cells, w, A));
     PetscCall(assembly::constrain_matrix(model.boundary.constraints, A));
-      // The default (automatic) hierarchy: only its fine-level operator is timed, but a
+    // The default (automatic) hierarchy: only its fine-level operator is timed, but a
     // one-level hierarchy would factor the whole fine matrix as its coarsest level.
     multigrid::Options opt;
-    multigrid::Multigrid mg(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition, model.layout,
-                            model.dm, opt);
+    multigrid::Multigrid mg(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition,
+                            model.layout, model.dm, opt);
     mg.update(model.cells, w, model.boundary.constraints.rows);
     Vec x, y;
     PetscCall(MatCreateVecs(A, &x, &y));
@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
                   1e-6 * double(N) / t, bytes);
     };
     row("assembled AIJ MatMult", t_aij, matrix_bytes);
-      row("matrix-free, identity rotations", t_mf, mf_bytes);
+    row("matrix-free, identity rotations", t_mf, mf_bytes);
     row("matrix-free, with rotations", t_mf_rot, mf_rot_bytes);
     PetscCall(PetscPrintf(PETSC_COMM_WORLD,
                           "bytes/DOF: operator storage only (matrix values+indices; matrix-free: "
@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
     PetscCall(VecDestroy(&x));
     PetscCall(VecDestroy(&y));
     PetscCall(MatDestroy(&A));
-      PetscCall(analysis::destroy_model(&model));
+    PetscCall(analysis::destroy_model(&model));
   }
   PetscCall(PetscFinalize());
   return 0;

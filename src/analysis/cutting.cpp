@@ -1,9 +1,9 @@
 #include "analysis/cutting.hpp"
 
-#include <array>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
+#include <array>
 #include <cstdio>
 
 #include "analysis/events.hpp"
@@ -181,8 +181,7 @@ std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
     const auto& v = M.copies.vertex[copy];
     const auto& box = pieces[k].box;
     const double scale = std::max(0.5 * box.diagonal().norm(), 1e-300);
-    const Eigen::Vector3d x =
-        (L.spec.vertex_position(v[0], v[1], v[2]) - box.center()) / scale;
+    const Eigen::Vector3d x = (L.spec.vertex_position(v[0], v[1], v[2]) - box.center()) / scale;
     Eigen::Matrix<double, 6, 1> r = Eigen::Matrix<double, 6, 1>::Zero();
     r[d] = 1.0;
     for (int a = 0; a < 3; ++a) r[3 + a] = Eigen::Vector3d::Unit(a).cross(x)[d];
@@ -260,9 +259,9 @@ std::string free_rigid_modes(const Eigen::Matrix<double, 6, 6>& G, const Eigen::
       std::snprintf(buf, sizeof buf, "translation along (%.3g, %.3g, %.3g)", a.x(), a.y(), a.z());
     } else {
       const Eigen::Vector3d a = oriented(w.normalized());
-      const Eigen::Vector3d p =
-          (box.center() + scale * w.cross(t) / w.squaredNorm()).array() + 0.0;
-      std::snprintf(buf, sizeof buf, "rotation about the axis through (%.4g, %.4g, %.4g) along (%.3g, %.3g, %.3g)",
+      const Eigen::Vector3d p = (box.center() + scale * w.cross(t) / w.squaredNorm()).array() + 0.0;
+      std::snprintf(buf, sizeof buf,
+                    "rotation about the axis through (%.4g, %.4g, %.4g) along (%.3g, %.3g, %.3g)",
                     p.x(), p.y(), p.z(), a.x(), a.y(), a.z());
     }
     out += (out.empty() ? "" : "; ") + std::string(buf);

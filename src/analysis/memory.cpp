@@ -13,9 +13,9 @@
 namespace hexcut::analysis {
 namespace {
 
-constexpr double kLibraries = 45e6;       // PETSc, MPI, HDF5 after initialization [B]
-constexpr double kPerLatticeCell = 14.0;  // dense material grid + cell index + position index
-constexpr double kPerImageCell = 8.0;     // dense Young's modulus grid of an image
+constexpr double kLibraries = 45e6;           // PETSc, MPI, HDF5 after initialization [B]
+constexpr double kPerLatticeCell = 14.0;      // dense material grid + cell index + position index
+constexpr double kPerImageCell = 8.0;         // dense Young's modulus grid of an image
 constexpr double kReplicatedPerCell = 300.0;  // cells, links, vertex copies, partition
 
 /// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner).
@@ -37,7 +37,9 @@ double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells) {
   return 9.5e3;
 }
 
-double gib(double bytes) { return bytes / (1024.0 * 1024.0 * 1024.0); }
+double gib(double bytes) {
+  return bytes / (1024.0 * 1024.0 * 1024.0);
+}
 
 /// A number from /proc/meminfo [bytes], or 0.
 double meminfo(const std::string& key) {
@@ -64,8 +66,8 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
   bool image_youngs = false;
   for (const auto& g : deck.geometry)
     image_youngs |= g.kind == deck::GeometryStep::Kind::image_youngs;
-  double bytes = kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) *
-                                  double(lattice_cells);
+  double bytes =
+      kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) * double(lattice_cells);
   if (material_cells > 0)
     bytes += kReplicatedPerCell * double(material_cells) +
              solver_bytes_per_cell(deck.solver, material_cells) * double(material_cells) /
@@ -132,8 +134,8 @@ void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material
                   "nodes, a leaner solver (gmg) or a coarser h (doc/user-guide.md, \"Memory\"; "
                   "-hexcut_memory_available GiB overrides what hexcut assumes the node has, 0 "
                   "skips this check)",
-                  (long long)material_cells, deck::to_string(deck.solver.type), size,
-                  gib(per_rank), gib(worst[1]), int(worst[1] / per_rank + 0.5), gib(worst[2]));
+                  (long long)material_cells, deck::to_string(deck.solver.type), size, gib(per_rank),
+                  gib(worst[1]), int(worst[1] / per_rank + 0.5), gib(worst[2]));
   throw InputError((material_cells < 0 ? deck.lattice_where.prefix() : deck.path + ":1: ") + msg);
 }
 

@@ -31,7 +31,8 @@ struct Model {
 /// Voxelizes the deck's geometry. Throws InputError (with the deck line) when the body
 /// is empty, or when an image gives some filled cell a Young's modulus <= 0 or not
 /// finite. Appends warnings (NaN voxels under filled cells) to `warnings` when given.
-lattice::Lattice build_lattice(const deck::Deck& deck, std::vector<std::string>* warnings = nullptr);
+lattice::Lattice build_lattice(const deck::Deck& deck,
+                               std::vector<std::string>* warnings = nullptr);
 
 /// Builds the whole model on `comm`. `superblock` = cells per super-block side.
 PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model);

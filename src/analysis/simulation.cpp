@@ -62,8 +62,9 @@ class LocalValues {
 Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
   // Option errors (an unknown type, a value that is not a number) are input errors.
-  parse_petsc_options(
-      [&] { check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver"); });
+  parse_petsc_options([&] {
+    check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
+  });
   if (uses_multigrid()) {
     auto options = parse_petsc_options([] { return multigrid::read_options(); });
     // After cuts, coarse cells may be wider than the pieces (rods, slivers): their coarse

@@ -63,7 +63,6 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
   for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", analysis::describe(p).c_str());
 }
 
-
 /// hexcut's options and the names of the options the user set (command line and the
 /// deck's petsc_options), read before hexcut adds its solver defaults.
 struct OptionSetup {
@@ -111,10 +110,10 @@ void require_same_physics(MPI_Comm comm, const deck::Deck& deck, const analysis:
   const auto dims = f.read_attribute_int64s("/mesh", "lattice_dims");
   const auto origin = f.read_attribute_doubles("/mesh", "lattice_origin");
   const bool same_lattice = f.read_attribute_double("/mesh", "lattice_h") == L.spec.h &&
-                            dims.size() == 3 && origin.size() == 3 &&
-                            dims[0] == L.spec.dims[0] && dims[1] == L.spec.dims[1] &&
-                            dims[2] == L.spec.dims[2] && origin[0] == L.spec.origin[0] &&
-                            origin[1] == L.spec.origin[1] && origin[2] == L.spec.origin[2];
+                            dims.size() == 3 && origin.size() == 3 && dims[0] == L.spec.dims[0] &&
+                            dims[1] == L.spec.dims[1] && dims[2] == L.spec.dims[2] &&
+                            origin[0] == L.spec.origin[0] && origin[1] == L.spec.origin[1] &&
+                            origin[2] == L.spec.origin[2];
   const auto n = f.read_attribute_int64("/mesh", "num_cells");
   if (!same_lattice) {
     diffs.push_back("the lattice (h, origin or dims)");
@@ -203,8 +202,10 @@ void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
     an::Cutter cutter(deck, model.lattice);
     prepare_static(comm, deck, cutter, &model, &state, [] {});
   } else if (!deck.cuts.empty()) {
-    PetscPrintf(comm, "%s: %d cut(s) act during the run (not checked here: they depend on "
-                      "the motion)\n", deck.path.c_str(), int(deck.cuts.size()));
+    PetscPrintf(comm,
+                "%s: %d cut(s) act during the run (not checked here: they depend on "
+                "the motion)\n",
+                deck.path.c_str(), int(deck.cuts.size()));
   }
   // The solver as the run creates it: PETSc parses the options here.
   { an::Simulation sim(comm, model, deck); }
@@ -294,10 +295,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     out->read_checkpoint(&state);
     cutter.skip_due(state.time);
     if (!dynamic) an::require_supported(an::find_pieces(comm, model));
-    PetscPrintf(comm,
-                "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
-                paths.final_path.c_str(), (long long)state.step, state.time,
-                (long long)links.size());
+    PetscPrintf(
+        comm, "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
+        paths.final_path.c_str(), (long long)state.step, state.time, (long long)links.size());
   } else if (dynamic) {
     sim->initial_acceleration(state);
     PetscLogEventBegin(ev.output, 0, 0, 0, 0);

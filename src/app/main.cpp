@@ -6,8 +6,8 @@
 #include <petscsys.h>
 
 #include <cstring>
-#include <new>
 #include <iostream>
+#include <new>
 #include <string>
 #include <vector>
 

@@ -65,8 +65,7 @@ ResultLock::ResultLock(MPI_Comm comm, const std::string& result_path) {
     const auto dir = fs::path(lock).parent_path();
     if (!dir.empty()) fs::create_directories(dir);
     fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0)
-      return "cannot create the lock file " + lock + ": " + std::strerror(errno);
+    if (fd_ < 0) return "cannot create the lock file " + lock + ": " + std::strerror(errno);
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
       const int err = errno;
       std::ifstream in(lock);
@@ -78,7 +77,8 @@ ResultLock::ResultLock(MPI_Comm comm, const std::string& result_path) {
       return result_path + " is being written by another hexcut run" +
              (holder.empty() ? std::string() : " (" + holder + ")") +
              "; two runs must not write one result: wait for it to end or choose another "
-             "output.name (lock: " + lock + ")";
+             "output.name (lock: " +
+             lock + ")";
     }
     // Who holds it, for the message another run prints.
     std::ostringstream who;
@@ -122,7 +122,8 @@ ResultPaths plan_result(MPI_Comm comm, const deck::Deck& deck, const JobOptions&
       return deck.path + ":" + std::to_string(deck.output.where.line) + ": " + p.final_path +
              " exists (the result of an earlier run); hexcut does not replace results unless "
              "told: --overwrite (or output.overwrite: true) replaces it when this run ends, "
-             "--restart " + p.final_path + " continues it, or choose another output.name";
+             "--restart " +
+             p.final_path + " continues it, or choose another output.name";
     return "";
   });
   if (overwrite) {

@@ -50,7 +50,8 @@ ResultPaths plan_result(MPI_Comm comm, const deck::Deck& deck, const JobOptions&
 
 /// After a successful run that replaces an earlier result: renames write_path over
 /// final_path (atomic within a file system), writes the XDMF indexes for the final name
-/// (output::write_indexes) and removes the temporary ones (output::index_paths). No-op when paths.replaces is false. Collective.
+/// (output::write_indexes) and removes the temporary ones (output::index_paths). No-op when
+/// paths.replaces is false. Collective.
 void commit_result(MPI_Comm comm, const ResultPaths& paths);
 
 }  // namespace hexcut::app

@@ -28,7 +28,7 @@ struct CellData {
   // Cells with the same (lambda, mu) share one stiffness K = h (lambda K_lambda + mu
   // K_mu): a few 24x24 matrices per material, never one per cell. kind = -1 when there
   // are too many distinct values (per-cell E from an image): K is formed on the fly.
-  std::vector<std::int32_t> kind;             // per local cell
+  std::vector<std::int32_t> kind;  // per local cell
   std::vector<std::array<double, 576>> kind_stiffness;
 };
 
@@ -50,7 +50,8 @@ void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& 
 
 /// The kernel view of local cell e under weights w (K from its kind, or formed into
 /// `buffer`, 576 doubles, which must outlive the view).
-element::FineCell fine_cell_view(const CellData& cells, std::size_t e, const OperatorWeights& w, double* buffer);
+element::FineCell fine_cell_view(const CellData& cells, std::size_t e, const OperatorWeights& w,
+                                 double* buffer);
 
 /// Sets every rotation to the identity (linear elasticity).
 void set_identity_rotations(CellData& cells);
@@ -77,8 +78,8 @@ PetscErrorCode assemble_matrix(const topology::DofLayout& layout, const CellData
                                const OperatorWeights& w, Mat A);
 
 /// y_local += A_local x_local, element by element over the rank's cells.
-void apply_local(const topology::DofLayout& layout, const CellData& cells,
-                 const OperatorWeights& w, const double* x_local, double* y_local);
+void apply_local(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
+                 const double* x_local, double* y_local);
 
 /// y = A x on global vectors (ghost exchange through the DM); y is overwritten.
 PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& cells,
@@ -86,8 +87,8 @@ PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& c
 
 /// b += sum over cells of -R^ K (R^T x_e - x_e): the corotational right-hand side
 /// (zero for identity rotations).
-PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout,
-                                    const CellData& cells, double stiffness_weight, Vec b);
+PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout, const CellData& cells,
+                                    double stiffness_weight, Vec b);
 
 /// The corotated displacements d = R^T (x + u) - x of the local cells at the global
 /// displacement u (24 per cell, R of each cell's own u), for assemble_midpoint_force.

@@ -10,12 +10,10 @@ namespace hexcut {
 
 struct LatticeSpec {
   Eigen::Vector3d origin{0.0, 0.0, 0.0};
-  double h = 1.0;                   // cell edge [m]
+  double h = 1.0;                    // cell edge [m]
   std::array<int, 3> dims{0, 0, 0};  // cells per axis
 
-  std::int64_t num_cells() const {
-    return std::int64_t(dims[0]) * dims[1] * dims[2];
-  }
+  std::int64_t num_cells() const { return std::int64_t(dims[0]) * dims[1] * dims[2]; }
   /// Dense cell index, x fastest.
   std::int64_t cell_index(int i, int j, int k) const {
     return i + std::int64_t(dims[0]) * (j + std::int64_t(dims[1]) * k);

@@ -12,7 +12,9 @@
 namespace hexcut {
 
 inline void check_petsc(PetscErrorCode ierr, const char* what) {
-  if (ierr) throw std::runtime_error(std::string("PETSc error ") + std::to_string(int(ierr)) + " in " + what);
+  if (ierr)
+    throw std::runtime_error(std::string("PETSc error ") + std::to_string(int(ierr)) + " in " +
+                             what);
 }
 
 }  // namespace hexcut

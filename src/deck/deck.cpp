@@ -31,7 +31,7 @@ struct Context {
   std::string file;
   fs::path dir;
   const std::vector<Material>* materials = nullptr;
-  double h = 1.0;  // lattice cell size, sets default tolerances
+  double h = 1.0;                                // lattice cell size, sets default tolerances
   std::vector<std::string>* warnings = nullptr;  // Deck::warnings
 
   int line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
@@ -882,12 +882,11 @@ Solver parse_solver(const Context& c, const YAML::Node& n) {
 /// portable file name characters.
 /// `n`: the deck's output.name, or null for the default (the deck file's stem).
 void check_output_name(const Context& c, const YAML::Node* n, const std::string& name) {
-  const bool portable =
-      !name.empty() && name[0] != '-' && name[0] != '.' &&
-      std::all_of(name.begin(), name.end(), [](char ch) {
-        return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') ||
-               ch == '.' || ch == '_' || ch == '-';
-      });
+  const bool portable = !name.empty() && name[0] != '-' && name[0] != '.' &&
+                        std::all_of(name.begin(), name.end(), [](char ch) {
+                          return (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') ||
+                                 (ch >= '0' && ch <= '9') || ch == '.' || ch == '_' || ch == '-';
+                        });
   // NAME_surface.xmf is the surface index of NAME.h5: a result may not take that name.
   const std::string surface = "_surface";
   const bool index_name = name.size() >= surface.size() &&
@@ -897,7 +896,8 @@ void check_output_name(const Context& c, const YAML::Node* n, const std::string&
                           "' must be a plain file name of letters, digits, '.', '_' and '-' "
                           "(not starting with '.' or '-', not ending in '_surface'): the XDMF "
                           "index cannot refer to other names reliably";
-  if (!n) throw InputError(c.file, 1, msg + "; the default is the deck file's name: give output.name");
+  if (!n)
+    throw InputError(c.file, 1, msg + "; the default is the deck file's name: give output.name");
   c.fail(*n, msg);
 }
 
@@ -1026,9 +1026,9 @@ Deck parse_deck(const std::string& text, const std::string& path) {
   // The deck is stored verbatim in the result file (a UTF-8 string) and names from it go
   // into XML indexes: both need valid UTF-8, which YAML requires anyway.
   if (const auto [line, column] = first_invalid_utf8(text); line > 0)
-    throw InputError(path, line,
-                     "the deck is not valid UTF-8 (column " + std::to_string(column) +
-                         "): save it as UTF-8");
+    throw InputError(
+        path, line,
+        "the deck is not valid UTF-8 (column " + std::to_string(column) + "): save it as UTF-8");
   std::vector<YAML::Node> documents;
   try {
     documents = YAML::LoadAll(text);

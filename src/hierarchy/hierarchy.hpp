@@ -37,7 +37,7 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode,
                             std::vector<std::int32_t>* parent);
 
 struct HierarchyOptions {
-  int levels = 0;               // 0 = automatic
+  int levels = 0;                   // 0 = automatic
   std::int64_t coarse_dofs = 3000;  // automatic: stop once a level has at most this many DOFs
   Coarsening mode = Coarsening::components;
 };
@@ -47,8 +47,10 @@ struct HierarchyOptions {
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, and never exceeds
 /// log2(partition.superblock) + 1 levels.
-std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topology::VertexCopies& copies,
-                                   const topology::Partition& partition, const topology::DofLayout& layout,
+std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
+                                   const topology::VertexCopies& copies,
+                                   const topology::Partition& partition,
+                                   const topology::DofLayout& layout,
                                    const HierarchyOptions& options);
 
 /// Interpolation weights from level l+1 to level l for the fine copies owned by `rank`
@@ -56,7 +58,7 @@ std::vector<Level> build_hierarchy(const topology::CellGraph& fine, const topolo
 /// A fine copy takes the weights of the coarse cell of its lowest-numbered incident cell;
 /// every other incident cell gives the same weights (checked by interpolation_mismatch).
 struct Interpolation {
-  std::vector<std::int32_t> fine;                 // owned fine copies (canonical)
+  std::vector<std::int32_t> fine;                   // owned fine copies (canonical)
   std::vector<std::array<std::int32_t, 8>> coarse;  // coarse copies (canonical), -1 = unused
   std::vector<std::array<double, 8>> weight;
 };

@@ -21,7 +21,8 @@ Lattice build_lattice(const LatticeSpec& spec, const std::vector<std::int16_t>& 
         L.ijk.push_back({i, j, k});
         L.material.push_back(m);
         double E = materials[m].youngs_modulus;
-        if (!youngs_override.empty() && !std::isnan(youngs_override[dense])) E = youngs_override[dense];
+        if (!youngs_override.empty() && !std::isnan(youngs_override[dense]))
+          E = youngs_override[dense];
         L.youngs.push_back(E);
         L.poisson.push_back(materials[m].poisson_ratio);
         L.density.push_back(materials[m].density);

@@ -27,7 +27,9 @@ PetscErrorCode history_monitor(KSP, PetscInt it, PetscReal rnorm, void*) {
   PetscFunctionBeginUser;
   PetscLogDouble now;
   PetscCall(PetscTime(&now));
-  if (g_history.file) std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(it), now - g_history.start, double(rnorm));
+  if (g_history.file)
+    std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(it),
+                 now - g_history.start, double(rnorm));
   PetscFunctionReturn(0);
 }
 
@@ -164,7 +166,8 @@ SolveRecord solve(KSP ksp, Vec b, Vec x) {
   check_petsc(VecNorm(b, NORM_2, &nb), "VecNorm");
   check_petsc(VecDestroy(&res), "VecDestroy");
   if (g_history.file) {  // the end point, also for direct solves that never monitor
-    std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(r.iterations), t2 - t0, double(nr));
+    std::fprintf(g_history.file, "%d %d %.6f %.10e\n", g_history.solve, int(r.iterations), t2 - t0,
+                 double(nr));
     std::fflush(g_history.file);
   }
   r.residual_norm = nr;
@@ -200,7 +203,8 @@ PetscErrorCode attach_residual_history(KSP ksp) {
   PetscFunctionBeginUser;
   char path[PETSC_MAX_PATH_LEN];
   PetscBool set = PETSC_FALSE;
-  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-hexcut_residual_history", path, sizeof path, &set));
+  PetscCall(
+      PetscOptionsGetString(nullptr, nullptr, "-hexcut_residual_history", path, sizeof path, &set));
   if (!set) PetscFunctionReturn(0);
   PetscMPIInt rank;
   PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)ksp), &rank));
@@ -213,6 +217,8 @@ PetscErrorCode attach_residual_history(KSP ksp) {
   PetscFunctionReturn(0);
 }
 
-std::string reason_string(KSPConvergedReason reason) { return KSPConvergedReasons[reason]; }
+std::string reason_string(KSPConvergedReason reason) {
+  return KSPConvergedReasons[reason];
+}
 
 }  // namespace hexcut::solve

@@ -19,7 +19,8 @@ void set_links(CellGraph& G, std::vector<std::array<std::int32_t, 2>> pairs) {
     G.link_target[next[p[1]]++] = p[0];
   }
   for (std::int32_t c = 0; c < n; ++c)
-    std::sort(G.link_target.begin() + G.link_offset[c], G.link_target.begin() + G.link_offset[c + 1]);
+    std::sort(G.link_target.begin() + G.link_offset[c],
+              G.link_target.begin() + G.link_offset[c + 1]);
 }
 
 CellGraph graph_from_lattice(const lattice::Lattice& L) {

@@ -14,10 +14,10 @@
 namespace hexcut::topology {
 
 struct CellGraph {
-  LatticeSpec spec;                                // this level's lattice
-  std::vector<std::array<std::int32_t, 3>> ijk;    // per cell: position
-  std::vector<std::int32_t> link_offset;           // CSR over cells (size n+1)
-  std::vector<std::int32_t> link_target;           // linked face neighbours, both directions
+  LatticeSpec spec;                              // this level's lattice
+  std::vector<std::array<std::int32_t, 3>> ijk;  // per cell: position
+  std::vector<std::int32_t> link_offset;         // CSR over cells (size n+1)
+  std::vector<std::int32_t> link_target;         // linked face neighbours, both directions
 
   std::int32_t num_cells() const { return std::int32_t(ijk.size()); }
 };

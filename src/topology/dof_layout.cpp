@@ -46,8 +46,8 @@ DofLayout build_dof_layout(const VertexCopies& V, const Partition& P, int rank) 
   return D;
 }
 
-PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& D, PetscInt bs, Vec* global, Vec* local,
-                                    VecScatter* g2l) {
+PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& D, PetscInt bs, Vec* global,
+                                    Vec* local, VecScatter* g2l) {
   PetscFunctionBeginUser;
   PetscCall(VecCreateMPI(comm, bs * D.num_owned, PETSC_DETERMINE, global));
   PetscCall(VecSetBlockSize(*global, bs));
@@ -56,7 +56,8 @@ PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& D, PetscInt 
   std::vector<PetscInt> gidx(D.num_local());
   for (std::int32_t i = 0; i < D.num_local(); ++i) gidx[i] = D.global_block[D.copies[i]];
   IS is_global, is_local;
-  PetscCall(ISCreateBlock(PETSC_COMM_SELF, bs, D.num_local(), gidx.data(), PETSC_COPY_VALUES, &is_global));
+  PetscCall(ISCreateBlock(PETSC_COMM_SELF, bs, D.num_local(), gidx.data(), PETSC_COPY_VALUES,
+                          &is_global));
   PetscCall(ISCreateStride(PETSC_COMM_SELF, bs * D.num_local(), 0, 1, &is_local));
   PetscCall(VecScatterCreate(*global, is_global, *local, is_local, g2l));
   PetscCall(ISDestroy(&is_global));
@@ -73,7 +74,8 @@ PetscErrorCode create_dm(MPI_Comm comm, const DofLayout& D, DM* dm) {
   std::vector<PetscInt> gidx(D.num_local());
   for (std::int32_t i = 0; i < D.num_local(); ++i) gidx[i] = D.global_block[D.copies[i]];
   IS is_global, is_local;
-  PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, D.num_local(), gidx.data(), PETSC_COPY_VALUES, &is_global));
+  PetscCall(
+      ISCreateBlock(PETSC_COMM_SELF, 3, D.num_local(), gidx.data(), PETSC_COPY_VALUES, &is_global));
   PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * D.num_local(), 0, 1, &is_local));
   PetscCall(VecScatterCreate(local, is_local, global, is_global, &l2g));
   PetscCall(ISDestroy(&is_global));

@@ -41,8 +41,8 @@ DofLayout build_dof_layout(const VertexCopies& copies, const Partition& partitio
 /// Ghost exchange for `bs` values per copy: a global vector (owned copies), a local
 /// sequential vector (owned + ghosts) and the scatter global -> local (use it with
 /// SCATTER_REVERSE and ADD_VALUES to sum local contributions into their owners).
-PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& layout, PetscInt bs, Vec* global,
-                                    Vec* local, VecScatter* global_to_local);
+PetscErrorCode create_ghost_scatter(MPI_Comm comm, const DofLayout& layout, PetscInt bs,
+                                    Vec* global, Vec* local, VecScatter* global_to_local);
 
 /// A DMShell over the layout: global vectors (owned DOFs, bs 3), local vectors
 /// (owned + ghost DOFs), and global<->local scatters (local->global adds).

@@ -62,9 +62,9 @@ Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, in
     idx_t options[METIS_NOPTIONS];
     METIS_SetDefaultOptions(options);
     options[METIS_OPTION_SEED] = 1;  // deterministic on every rank
-    const int status = METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), weight.data(),
-                                           nullptr, nullptr, &nparts, nullptr, nullptr, options,
-                                           &objval, part.data());
+    const int status =
+        METIS_PartGraphKway(&nv, &ncon, xadj.data(), adjncy.data(), weight.data(), nullptr, nullptr,
+                            &nparts, nullptr, nullptr, options, &objval, part.data());
     if (status != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed");
     for (std::int32_t c = 0; c < n; ++c) P.cell_rank[c] = int(part[block_of_cell[c]]);
   }

@@ -16,9 +16,9 @@ namespace hexcut::topology {
 
 struct Partition {
   int num_ranks = 1;
-  int superblock = 8;                 // cells per super-block side actually used
-  std::vector<int> cell_rank;         // per cell
-  std::vector<int> copy_rank;         // per vertex copy
+  int superblock = 8;          // cells per super-block side actually used
+  std::vector<int> cell_rank;  // per cell
+  std::vector<int> copy_rank;  // per vertex copy
 };
 
 /// `superblock` is a power of two; it is halved while there are fewer than 2 occupied

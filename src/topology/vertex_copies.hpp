@@ -16,7 +16,9 @@
 namespace hexcut::topology {
 
 /// Corner q of a cell sits at local offset (q&1, (q>>1)&1, (q>>2)&1): x fastest.
-inline std::array<int, 3> corner_offset(int q) { return {q & 1, (q >> 1) & 1, (q >> 2) & 1}; }
+inline std::array<int, 3> corner_offset(int q) {
+  return {q & 1, (q >> 1) & 1, (q >> 2) & 1};
+}
 
 /// VTK_HEXAHEDRON corner order expressed in hexcut's corner numbering.
 inline constexpr std::array<int, 8> kVtkHexOrder{0, 1, 3, 2, 4, 5, 7, 6};
@@ -25,7 +27,7 @@ struct VertexCopies {
   std::int32_t num_copies = 0;
   std::vector<std::array<std::int32_t, 8>> cell_corners;  // per cell: copy at each corner
   std::vector<std::array<std::int32_t, 3>> vertex;        // per copy: lattice vertex (i,j,k)
-  std::vector<std::int32_t> first_cell;  // per copy: lowest-numbered incident cell
+  std::vector<std::int32_t> first_cell;                   // per copy: lowest-numbered incident cell
 };
 
 /// Builds vertex copies from a level's cells and links (several cells may share a

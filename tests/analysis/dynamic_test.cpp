@@ -19,9 +19,11 @@ TEST(Dynamic, FreeVibrationConservesEnergyAndHasBeamPeriod) {
   const double dt = period_eb / 100;
 
   // Initial state: the static deflection under a tip load, released at t = 0.
-  Job loaded(PETSC_COMM_WORLD, cantilever_deck(h, "{type: static}", "{type: direct}", L, b, t, 1000.0));
+  Job loaded(PETSC_COMM_WORLD,
+             cantilever_deck(h, "{type: static}", "{type: direct}", L, b, t, 1000.0));
   loaded.sim->run_static(loaded.state, {});
-  const std::string dyn = "{type: dynamic, dt: " + std::to_string(dt) + ", steps: 1000, mass: consistent}";
+  const std::string dyn =
+      "{type: dynamic, dt: " + std::to_string(dt) + ", steps: 1000, mass: consistent}";
   std::string yaml = cantilever_deck(h, dyn, "{type: direct}", L, b, t, 0.0);
   Job job(PETSC_COMM_WORLD, yaml);
   VecCopy(loaded.state.u, job.state.u);
@@ -65,8 +67,8 @@ TEST(Dynamic, FreeVibrationConservesEnergyAndHasBeamPeriod) {
   const double r2 = I / A;
   const double corr = 1 - 0.5 * beta * beta * (r2 / (L * L)) * (1 + E / (kappa * G));
   const double period_beam = period_eb / corr;
-  std::printf("period %.6f s, beam theory %.6f s (EB %.6f), deviation %.2f%%, energy drift %.2e\n", period,
-              period_beam, period_eb, 100 * (period / period_beam - 1), max_drift);
+  std::printf("period %.6f s, beam theory %.6f s (EB %.6f), deviation %.2f%%, energy drift %.2e\n",
+              period, period_beam, period_eb, 100 * (period / period_beam - 1), max_drift);
   EXPECT_LT(std::abs(period / period_beam - 1), 0.03);
 }
 

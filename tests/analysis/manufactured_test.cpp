@@ -24,7 +24,8 @@ Eigen::Vector3d exact(const Eigen::Vector3d& x) {
 Eigen::Matrix3d exact_gradient(const Eigen::Vector3d& x) {  // (grad u)_ij = du_i/dx_j
   const Eigen::Vector3d s(std::sin(kPi * x[0]), std::sin(kPi * x[1]), std::sin(kPi * x[2]));
   const Eigen::Vector3d c(std::cos(kPi * x[0]), std::cos(kPi * x[1]), std::cos(kPi * x[2]));
-  const Eigen::Vector3d dg(kPi * c[0] * s[1] * s[2], kPi * s[0] * c[1] * s[2], kPi * s[0] * s[1] * c[2]);
+  const Eigen::Vector3d dg(kPi * c[0] * s[1] * s[2], kPi * s[0] * c[1] * s[2],
+                           kPi * s[0] * s[1] * c[2]);
   return Eigen::Vector3d(kC[0], kC[1], kC[2]) * dg.transpose();
 }
 
@@ -53,8 +54,8 @@ struct Errors {
 
 Errors solve_and_measure(int n) {
   const double h = 1.0 / n;
-  const std::string yaml = "lattice: {h: " + std::to_string(h) + ", dims: [" + std::to_string(n) + ", " +
-                           std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
+  const std::string yaml = "lattice: {h: " + std::to_string(h) + ", dims: [" + std::to_string(n) +
+                           ", " + std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
                            "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
                            "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]\n"
                            "boundary:\n  fixed:\n"
@@ -110,10 +111,13 @@ Errors solve_and_measure(int n) {
   // Operator and solve (homogeneous Dirichlet).
   Mat A;
   KSP ksp;
-  check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, M.partition, D, &A), "create_matrix");
+  check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, M.partition, D, &A),
+              "create_matrix");
   check_petsc(assembly::assemble_matrix(D, M.cells, {1.0, 0.0, true}, A), "assemble");
   check_petsc(assembly::constrain_matrix(M.boundary.constraints, A), "constrain");
-  check_petsc(assembly::constrain_rhs(M.dm, D, M.cells, {1.0, 0.0, true}, M.boundary.constraints, 0.0, 1.0, b), "rhs");
+  check_petsc(assembly::constrain_rhs(M.dm, D, M.cells, {1.0, 0.0, true}, M.boundary.constraints,
+                                      0.0, 1.0, b),
+              "rhs");
   check_petsc(solve::create_solver(PETSC_COMM_WORLD, M.dm, job.deck.solver, &ksp), "ksp");
   check_petsc(solve::set_operator(ksp, job.deck.solver, A, M.coordinates), "operator");
   solve::solve(ksp, b, job.state.u);
@@ -142,7 +146,8 @@ Errors solve_and_measure(int n) {
       }
       const Eigen::Vector3d x = x0 + h * xi;
       l2 += w * (uh - exact(x)).squaredNorm();
-      const Eigen::Matrix3d de = 0.5 * ((Gh - exact_gradient(x)) + (Gh - exact_gradient(x)).transpose());
+      const Eigen::Matrix3d de =
+          0.5 * ((Gh - exact_gradient(x)) + (Gh - exact_gradient(x)).transpose());
       en += w * (kLambda * de.trace() * de.trace() + 2 * kMu * (de.array() * de.array()).sum());
     }
   }
@@ -162,8 +167,8 @@ TEST(Manufactured, ConvergesWithOptimalOrders) {
   for (std::size_t k = 1; k < err.size(); ++k) {
     const double l2_order = std::log2(err[k - 1].l2 / err[k].l2);
     const double energy_order = std::log2(err[k - 1].energy / err[k].energy);
-    std::printf("refinement %zu: L2 %.3e (order %.3f)  energy %.3e (order %.3f)\n", k, err[k].l2, l2_order,
-                err[k].energy, energy_order);
+    std::printf("refinement %zu: L2 %.3e (order %.3f)  energy %.3e (order %.3f)\n", k, err[k].l2,
+                l2_order, err[k].energy, energy_order);
     if (k == err.size() - 1) {
       EXPECT_GE(l2_order, 1.9);
       EXPECT_GE(energy_order, 0.9);

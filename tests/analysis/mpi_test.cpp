@@ -8,7 +8,8 @@
 namespace hexcut::testing {
 namespace {
 
-std::vector<double> solve_on(MPI_Comm comm, const std::string& yaml, PetscInt* iterations = nullptr) {
+std::vector<double> solve_on(MPI_Comm comm, const std::string& yaml,
+                             PetscInt* iterations = nullptr) {
   Job job(comm, yaml, 4);
   if (job.deck.analysis.type == deck::Analysis::Type::dynamic) {
     job.sim->initial_acceleration(job.state);
@@ -57,11 +58,13 @@ void compare(const std::string& yaml, double tol) {
 class EverySolver : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(EverySolver, TwoRanksEqualOneRank) {
-  const std::string solver = std::string("{type: ") + GetParam() + ", rtol: 1.0e-11, max_iterations: 20000}";
+  const std::string solver =
+      std::string("{type: ") + GetParam() + ", rtol: 1.0e-11, max_iterations: 20000}";
   compare(cantilever_deck(0.025, "{type: static}", solver), 1e-8);
 }
 
-INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver, ::testing::Values("cg-jacobi", "hypre", "gamg", "direct", "gmg"));
+INSTANTIATE_TEST_SUITE_P(Solvers, EverySolver,
+                         ::testing::Values("cg-jacobi", "hypre", "gamg", "direct", "gmg"));
 
 TEST(Mpi, CorotationalDynamicTwoRanksEqualOneRank) {
   const std::string yaml =

@@ -43,7 +43,9 @@ std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> axes(const std::string&
 
 const char* kBase = "    - where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}\n";
 
-TEST(Supports, ClampedBaseHoldsEverything) { EXPECT_EQ(free_modes(kBase), ""); }
+TEST(Supports, ClampedBaseHoldsEverything) {
+  EXPECT_EQ(free_modes(kBase), "");
+}
 
 TEST(Supports, RollerBaseLeavesInPlaneMotions) {
   EXPECT_EQ(free_modes(std::string(kBase).replace(std::string(kBase).size() - 1, 1,
@@ -61,14 +63,13 @@ TEST(Supports, NoSupportLeavesAllSix) {
   const auto pieces = analysis::find_pieces(PETSC_COMM_WORLD, job.model);
   ASSERT_EQ(pieces.size(), 1u);
   EXPECT_FALSE(pieces[0].supported);
-  EXPECT_EQ(pieces[0].free_modes,
-            "translation x, y, z; rotation about x, y, z");
+  EXPECT_EQ(pieces[0].free_modes, "translation x, y, z; rotation about x, y, z");
 }
 
 TEST(Supports, HeldEdgeLeavesTheRotationAboutIt) {
   // Every vertex of the edge y = z = 0 fixed: the only free motion turns about it.
-  const auto modes = free_modes(
-      "    - where: {box: {min: [-0.01, -0.01, -0.01], max: [1.01, 0.01, 0.01]}}\n");
+  const auto modes =
+      free_modes("    - where: {box: {min: [-0.01, -0.01, -0.01], max: [1.01, 0.01, 0.01]}}\n");
   const auto a = axes(modes);
   ASSERT_EQ(a.size(), 1u) << modes;
   EXPECT_NEAR(a[0].first.y(), 0.0, 1e-3) << modes;

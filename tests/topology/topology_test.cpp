@@ -10,7 +10,8 @@
 namespace hexcut::topology {
 namespace {
 
-lattice::Lattice make(const std::array<int, 3>& dims, const std::vector<std::array<int, 3>>& filled) {
+lattice::Lattice make(const std::array<int, 3>& dims,
+                      const std::vector<std::array<int, 3>>& filled) {
   LatticeSpec spec;
   spec.dims = dims;
   std::vector<std::int16_t> dense(spec.num_cells(), -1);
@@ -70,8 +71,10 @@ TEST(Partition, SuperBlocksStayOnOneRankAndOwnersTouchTheirCopies) {
     EXPECT_EQ(it->second, P.cell_rank[c]) << "super-block split over ranks";
     ++count[P.cell_rank[c]];
   }
-  for (int r = 0; r < 3; ++r) EXPECT_GT(count[r], L.num_cells() / 6) << "rank " << r << " badly balanced";
-  for (std::int32_t v = 0; v < V.num_copies; ++v) EXPECT_EQ(P.copy_rank[v], P.cell_rank[V.first_cell[v]]);
+  for (int r = 0; r < 3; ++r)
+    EXPECT_GT(count[r], L.num_cells() / 6) << "rank " << r << " badly balanced";
+  for (std::int32_t v = 0; v < V.num_copies; ++v)
+    EXPECT_EQ(P.copy_rank[v], P.cell_rank[V.first_cell[v]]);
 }
 
 }  // namespace
