@@ -17,9 +17,16 @@ inline void check_petsc(PetscErrorCode ierr, const char* what) {
                              what);
 }
 
-}  // namespace hexcut
-
-namespace hexcut {
+/// Sets option `name` (e.g. "-ksp_type") to `value` (nullptr: a flag) in the global
+/// options database unless the user set it: hexcut's defaults, which the command line and
+/// the deck's petsc_options override.
+inline PetscErrorCode set_option_if_unset(const char* name, const char* value) {
+  PetscFunctionBeginUser;
+  PetscBool set = PETSC_FALSE;
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
+  if (!set) PetscCall(PetscOptionsSetValue(nullptr, name, value));
+  PetscFunctionReturn(0);
+}
 
 /// Runs `call`, a step that reads the user's PETSc options (solver types, numbers): an
 /// error there is a mistake in the input, so it becomes an InputError carrying PETSc's own

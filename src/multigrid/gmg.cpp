@@ -752,6 +752,14 @@ void Multigrid::build_coarsest() {
     check_petsc(KSPGetPC(coarse_ksp_, &pc), "KSPGetPC");
     check_petsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
     check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "solver type");
+    // The masked Galerkin operator may be singular, though consistent: two coarse copies
+    // whose columns of P differ only on prescribed fine DOFs (found on bunny.yaml near
+    // its support: three zero eigenvalues of 2814). MUMPS then divides by a pivot that
+    // is round-off, or zero, so the coarse correction was huge or NaN, varying with the
+    // factorization's parallel scheduling (bunny_cuts on 2 ranks stopped with
+    // DIVERGED_NANORINF or DIVERGED_INDEFINITE_PC in about 1 run of 8). Null-pivot
+    // detection (ICNTL(24)) sets those components to zero instead; P x is unchanged.
+    check_petsc(set_option_if_unset("-gmg_coarse_mat_mumps_icntl_24", "1"), "options");
     check_petsc(KSPSetFromOptions(coarse_ksp_), "KSPSetFromOptions");
   }
   check_petsc(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_), "KSPSetOperators");

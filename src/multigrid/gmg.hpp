@@ -113,6 +113,10 @@ class Multigrid {
   Vec mask(int l) const;
   /// Global vector of level l.
   PetscErrorCode create_vector(int l, Vec* v) const;
+  /// The coarsest level's assembled matrix (masked Galerkin, identity rows where dead),
+  /// and its solve x = A_c^+ b as the V-cycle does it (for tests).
+  Mat coarsest_matrix() const { return coarse_matrix_; }
+  PetscErrorCode solve_coarsest(Vec b, Vec x) { return KSPSolve(coarse_ksp_, b, x); }
 
  private:
   struct LevelData;

@@ -8,14 +8,6 @@
 namespace hexcut::solve {
 namespace {
 
-PetscErrorCode set_if_unset(const char* name, const char* value) {
-  PetscFunctionBeginUser;
-  PetscBool set = PETSC_FALSE;
-  PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
-  if (!set) PetscCall(PetscOptionsSetValue(nullptr, name, value));
-  PetscFunctionReturn(0);
-}
-
 struct History {
   FILE* file = nullptr;
   int solve = 0;
@@ -39,7 +31,7 @@ PetscErrorCode insert_deck_options(const deck::Solver& s) {
   PetscFunctionBeginUser;
   // The command line was parsed by PetscInitialize and wins.
   for (const auto& [name, value] : s.petsc_options)
-    PetscCall(set_if_unset(name.c_str(), value.empty() ? nullptr : value.c_str()));
+    PetscCall(set_option_if_unset(name.c_str(), value.empty() ? nullptr : value.c_str()));
   PetscFunctionReturn(0);
 }
 
@@ -48,8 +40,8 @@ PetscErrorCode set_default_options(const deck::Solver& s) {
   PetscCall(insert_deck_options(s));
   switch (s.type) {
     case deck::Solver::Type::cg_jacobi:
-      PetscCall(set_if_unset("-ksp_type", "cg"));
-      PetscCall(set_if_unset("-pc_type", "jacobi"));
+      PetscCall(set_option_if_unset("-ksp_type", "cg"));
+      PetscCall(set_option_if_unset("-pc_type", "jacobi"));
       break;
     case deck::Solver::Type::hypre:
       // BoomerAMG for 3D elasticity (doc/user-guide.md, "hypre settings"):
@@ -65,41 +57,41 @@ PetscErrorCode set_default_options(const deck::Solver& s) {
       // Measured on the cantilever example (20k DOFs): nodal_coarsen 6 took 146
       // iterations; this set 58 and is the fastest of the combinations tried
       // (doc/benchmarks.md).
-      PetscCall(set_if_unset("-ksp_type", "cg"));
-      PetscCall(set_if_unset("-pc_type", "hypre"));
-      PetscCall(set_if_unset("-pc_hypre_type", "boomeramg"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_nodal_coarsen", "1"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_vec_interp_variant", "2"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_vec_interp_qmax", "4"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_strong_threshold", "0.5"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_coarsen_type", "HMIS"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_interp_type", "ext+i"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_P_max", "4"));
-      PetscCall(set_if_unset("-pc_hypre_boomeramg_agg_nl", "1"));
+      PetscCall(set_option_if_unset("-ksp_type", "cg"));
+      PetscCall(set_option_if_unset("-pc_type", "hypre"));
+      PetscCall(set_option_if_unset("-pc_hypre_type", "boomeramg"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_nodal_coarsen", "1"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_vec_interp_variant", "2"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_vec_interp_qmax", "4"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_strong_threshold", "0.5"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_coarsen_type", "HMIS"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_interp_type", "ext+i"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_P_max", "4"));
+      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_agg_nl", "1"));
       break;
     case deck::Solver::Type::gamg:
       // Smoothed aggregation with the 6 rigid-body modes (MatNullSpaceCreateRigidBody).
-      PetscCall(set_if_unset("-ksp_type", "cg"));
-      PetscCall(set_if_unset("-pc_type", "gamg"));
-      PetscCall(set_if_unset("-pc_gamg_type", "agg"));
-      PetscCall(set_if_unset("-pc_gamg_threshold", "0.01"));
-      PetscCall(set_if_unset("-mg_levels_ksp_type", "chebyshev"));
-      PetscCall(set_if_unset("-mg_levels_pc_type", "jacobi"));
+      PetscCall(set_option_if_unset("-ksp_type", "cg"));
+      PetscCall(set_option_if_unset("-pc_type", "gamg"));
+      PetscCall(set_option_if_unset("-pc_gamg_type", "agg"));
+      PetscCall(set_option_if_unset("-pc_gamg_threshold", "0.01"));
+      PetscCall(set_option_if_unset("-mg_levels_ksp_type", "chebyshev"));
+      PetscCall(set_option_if_unset("-mg_levels_pc_type", "jacobi"));
       break;
     case deck::Solver::Type::gmg:
       // CG preconditioned by hexcut's V-cycle (a PCSHELL attached by the analysis).
-      PetscCall(set_if_unset("-ksp_type", "cg"));
+      PetscCall(set_option_if_unset("-ksp_type", "cg"));
       break;
     case deck::Solver::Type::gmg_cycles:
       // The theses' real-time mode: a fixed number of V-cycles (Richardson), warm-started
       // from the previous step, no convergence test.
-      PetscCall(set_if_unset("-ksp_type", "richardson"));
+      PetscCall(set_option_if_unset("-ksp_type", "richardson"));
       break;
     case deck::Solver::Type::direct:
       // Cholesky through MUMPS (parallel); the matrix is SPD after symmetric elimination.
-      PetscCall(set_if_unset("-ksp_type", "preonly"));
-      PetscCall(set_if_unset("-pc_type", "cholesky"));
-      PetscCall(set_if_unset("-pc_factor_mat_solver_type", "mumps"));
+      PetscCall(set_option_if_unset("-ksp_type", "preonly"));
+      PetscCall(set_option_if_unset("-pc_type", "cholesky"));
+      PetscCall(set_option_if_unset("-pc_factor_mat_solver_type", "mumps"));
       break;
   }
   PetscFunctionReturn(0);
