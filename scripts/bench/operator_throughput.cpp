@@ -56,8 +56,7 @@ int main(int argc, char** argv) {
     PetscCall(analysis::build_model(PETSC_COMM_WORLD, deck, 8, &model));
     const assembly::OperatorWeights w{1.0, 0.0, true};
     Mat A;
-    PetscCall(
-        assembly::create_matrix(PETSC_COMM_WORLD, model.copies, model.partition, model.layout, &A));
+    PetscCall(assembly::create_matrix(PETSC_COMM_WORLD, model.copies, model.layout, &A));
     PetscCall(assembly::assemble_matrix(model.layout, model.cells, w, A));
     PetscCall(assembly::constrain_matrix(model.boundary.constraints, A));
     // The default (automatic) hierarchy: only its fine-level operator is timed, but a

@@ -100,26 +100,6 @@ output::ResultWriter create_writer(MPI_Comm comm, const Model& M, const deck::De
 
 }  // namespace
 
-PetscErrorCode create_state(DM dm, State* s) {
-  PetscFunctionBeginUser;
-  PetscCall(DMCreateGlobalVector(dm, &s->u));
-  PetscCall(PetscObjectSetName((PetscObject)s->u, "displacement"));
-  PetscCall(VecDuplicate(s->u, &s->v));
-  PetscCall(VecDuplicate(s->u, &s->a));
-  PetscCall(VecSet(s->u, 0.0));
-  PetscCall(VecSet(s->v, 0.0));
-  PetscCall(VecSet(s->a, 0.0));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode destroy_state(State* s) {
-  PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&s->u));
-  PetscCall(VecDestroy(&s->v));
-  PetscCall(VecDestroy(&s->a));
-  PetscFunctionReturn(0);
-}
-
 PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStressFields* out) {
   PetscFunctionBeginUser;
   const auto& D = M.layout;
@@ -370,7 +350,7 @@ void ResultOutput::write_step(const State& s, bool corotational) {
 }
 
 void ResultOutput::record_solve(std::int64_t step, double time, const solve::SolveRecord& r) {
-  output::SolveRecord rec;
+  output::SolverHistoryRow rec;
   rec.step = step;
   rec.time = time;
   rec.iterations = r.iterations;

@@ -11,20 +11,12 @@
 #include <string>
 
 #include "analysis/model.hpp"
+#include "analysis/state.hpp"
 #include "output/result_writer.hpp"
 #include "solve/linear_solver.hpp"
 #include "surface/surface.hpp"
 
 namespace hexcut::analysis {
-
-/// Displacement, velocity, acceleration (global vectors) at a time.
-struct State {
-  Vec u = nullptr, v = nullptr, a = nullptr;
-  double time = 0.0;
-  std::int64_t step = 0;
-};
-PetscErrorCode create_state(DM dm, State* s);
-PetscErrorCode destroy_state(State* s);
 
 /// Stress of the local cells from the global displacement (ghosts exchanged through the
 /// DM). Corotational runs use each cell's own rotation (design.md §4 "Stress").

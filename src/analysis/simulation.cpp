@@ -81,8 +81,7 @@ Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");
     check_petsc(mg_->attach(pc), "attach");
   } else {
-    check_petsc(assembly::create_matrix(comm, model.copies, model.partition, model.layout, &A_),
-                "create_matrix");
+    check_petsc(assembly::create_matrix(comm, model.copies, model.layout, &A_), "create_matrix");
   }
 }
 
@@ -194,8 +193,7 @@ void Simulation::initial_acceleration(State& s) {
   check_petsc(VecAXPY(r, -1.0, Ku), "VecAXPY");
   Mat M;
   KSP k;
-  check_petsc(assembly::create_matrix(comm_, model_.copies, model_.partition, model_.layout, &M),
-              "create_matrix");
+  check_petsc(assembly::create_matrix(comm_, model_.copies, model_.layout, &M), "create_matrix");
   check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, mass_only, M),
               "assemble_matrix");
   check_petsc(assembly::constrain_matrix(model_.boundary.constraints, M), "constrain_matrix");
@@ -233,28 +231,30 @@ solve::SolveRecord Simulation::linearized_step(State& s, Vec u_new) {
   if (corotational() || !assembled_) assemble(w);
   const double t1 = double(s.step + 1) * an.dt;
   ScratchVec b(model_.dm), hist(model_.dm), tmp(model_.dm);
-  auto& M = model_;
-  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, b),
-              "assemble_loads");
+  check_petsc(
+      assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary, t1, 1.0, b),
+      "assemble_loads");
   if (corotational())
-    check_petsc(assembly::add_corotational_rhs(M.dm, M.layout, M.cells, 1.0, b),
+    check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, b),
                 "corotational_rhs");
   // + M (a0 u + a2 v + a)
   check_petsc(VecAXPBYPCZ(hist, c.a0, c.a2, 0.0, s.u, s.v), "VecAXPBYPCZ");
   check_petsc(VecAXPY(hist, 1.0, s.a), "VecAXPY");
-  check_petsc(assembly::apply(M.dm, M.layout, M.cells, {0.0, 1.0, lumped}, hist, tmp), "apply");
+  check_petsc(
+      assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0, lumped}, hist, tmp),
+      "apply");
   check_petsc(VecAXPY(b, 1.0, tmp), "VecAXPY");
   // + D (a1 u + v)
   if (an.rayleigh_mass != 0.0 || an.rayleigh_stiffness != 0.0) {
     check_petsc(VecAXPBYPCZ(hist, c.a1, 1.0, 0.0, s.u, s.v), "VecAXPBYPCZ");
-    check_petsc(assembly::apply(M.dm, M.layout, M.cells,
+    check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells,
                                 {an.rayleigh_stiffness, an.rayleigh_mass, lumped}, hist, tmp),
                 "apply");
     check_petsc(VecAXPY(b, 1.0, tmp), "VecAXPY");
   }
-  check_petsc(
-      assembly::constrain_rhs(M.dm, M.layout, M.cells, w, M.boundary.constraints, t1, 1.0, b),
-      "constrain_rhs");
+  check_petsc(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w,
+                                      model_.boundary.constraints, t1, 1.0, b),
+              "constrain_rhs");
   check_petsc(VecCopy(s.u, u_new), "VecCopy");
   EventScope scope(events().solve);
   return solve::solve(ksp_, b, u_new);
@@ -276,29 +276,30 @@ solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u
   const assembly::OperatorWeights inertia{c.a1 * an.rayleigh_stiffness,
                                           c.a0 + c.a1 * an.rayleigh_mass, lumped};
   const double t1 = double(s.step + 1) * an.dt;
-  auto& M = model_;
-  ScratchVec fixed(M.dm), b(M.dm), r(M.dm), du(M.dm), u_prev(M.dm);
+  ScratchVec fixed(model_.dm), b(model_.dm), r(model_.dm), du(model_.dm), u_prev(model_.dm);
   // The part of r that does not change within the step: f(t_n) + f(t_n+1) + a0 dt M v_n.
-  check_petsc(assembly::apply(M.dm, M.layout, M.cells, {0.0, c.a0 * an.dt, lumped}, s.v, fixed),
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, c.a0 * an.dt, lumped},
+                              s.v, fixed),
               "apply");
   check_petsc(VecAXPY(fixed, 1.0, load_sum), "VecAXPY");
   // Predictor: constant velocity, and the prescribed values at t_n+1.
   check_petsc(VecWAXPY(u_new, an.dt, s.v, s.u), "VecWAXPY");
-  check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 1.0, u_new),
+  check_petsc(assembly::set_prescribed_values(model_.boundary.constraints, t1, 1.0, u_new),
               "set_prescribed_values");
   solve::SolveRecord total;
   double change = 0.0, energy[2];
   solves_ = 0;
   {
     EventScope scope(events().energy);
-    check_petsc(assembly::corotated_displacements(M.dm, M.layout, M.cells, s.u, &start_d_),
-                "corotated_displacements");
+    check_petsc(
+        assembly::corotated_displacements(model_.dm, model_.layout, model_.cells, s.u, &start_d_),
+        "corotated_displacements");
   }
   for (;;) {
     {
       EventScope scope(events().energy);
-      check_petsc(assembly::assemble_midpoint_force(M.dm, M.layout, M.cells, start_d_, s.u, u_new,
-                                                    fbar, energy),
+      check_petsc(assembly::assemble_midpoint_force(model_.dm, model_.layout, model_.cells,
+                                                    start_d_, s.u, u_new, fbar, energy),
                   "assemble_midpoint_force");
     }
     // The operator (and preconditioner) of the predictor's mid-point serves the whole
@@ -309,16 +310,16 @@ solve::SolveRecord Simulation::midpoint_step(const State& s, Vec load_sum, Vec u
     // r = fixed - 2 f_alg - (a0 + a1 alpha1) M du - a1 alpha2 K^ du; no equation on the
     // prescribed rows.
     check_petsc(VecWAXPY(du, -1.0, s.u, u_new), "VecWAXPY");
-    check_petsc(assembly::apply(M.dm, M.layout, M.cells, inertia, du, r), "apply");
+    check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, inertia, du, r), "apply");
     check_petsc(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar), "VecAXPBYPCZ");
-    check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 0.0, r),
+    check_petsc(assembly::set_prescribed_values(model_.boundary.constraints, t1, 0.0, r),
                 "set_prescribed_values");
     // b = A u_k + r with the solver's own operator (constrained: identity rows).
     Mat A;
     check_petsc(KSPGetOperators(ksp_, &A, nullptr), "KSPGetOperators");
     check_petsc(MatMult(A, u_new, b), "MatMult");
     check_petsc(VecAXPY(b, 1.0, r), "VecAXPY");
-    check_petsc(assembly::set_prescribed_values(M.boundary.constraints, t1, 1.0, b),
+    check_petsc(assembly::set_prescribed_values(model_.boundary.constraints, t1, 1.0, b),
                 "set_prescribed_values");
     // Converged when the last update was below the tolerance, or when the residual is as
     // small as a linear solve leaves it (||b - A u|| <= rtol ||b||; twice that, so that a
@@ -370,13 +371,15 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
   // t = n dt, not a running sum: summing dt drifts (0.1 + 0.1 + ... = 2.9999999999999583)
   // and then a time that a user asks for (ParaView, a cut time) falls on the step before.
   const double t1 = double(s.step + 1) * an.dt;
-  auto& M = model_;
-  ScratchVec u0(M.dm), v0(M.dm), loads(M.dm), tmp(M.dm), u_new(M.dm), fbar(M.dm);
+  ScratchVec u0(model_.dm), v0(model_.dm), loads(model_.dm), tmp(model_.dm), u_new(model_.dm),
+      fbar(model_.dm);
   check_petsc(VecCopy(s.u, u0), "VecCopy");
   check_petsc(VecCopy(s.v, v0), "VecCopy");
-  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t0, 1.0, loads),
+  check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary, t0,
+                                       1.0, loads),
               "assemble_loads");
-  check_petsc(assembly::assemble_loads(M.dm, M.layout, M.cells, M.boundary, t1, 1.0, tmp),
+  check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary, t1,
+                                       1.0, tmp),
               "assemble_loads");
   check_petsc(VecAXPY(loads, 1.0, tmp), "VecAXPY");
   const bool midpoint = corotational() && an.rotations == deck::Analysis::Rotations::iterated;
@@ -415,13 +418,14 @@ solve::SolveRecord Simulation::newmark_step(State& s) {
 }
 
 void Simulation::internal_force(Vec u, Vec f) {
-  auto& M = model_;
   if (corotational()) refresh_rotations(u);
-  check_petsc(assembly::apply(M.dm, M.layout, M.cells, {1.0, 0.0, true}, u, f), "apply");
+  check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, u, f),
+              "apply");
   if (corotational()) {
-    ScratchVec r(M.dm);
+    ScratchVec r(model_.dm);
     check_petsc(VecSet(r, 0.0), "VecSet");
-    check_petsc(assembly::add_corotational_rhs(M.dm, M.layout, M.cells, 1.0, r), "rhs");
+    check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, r),
+                "rhs");
     check_petsc(VecAXPY(f, -1.0, r), "VecAXPY");
   }
 }
@@ -430,7 +434,6 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
                                 double strain0, double strain1) {
   const auto& an = deck_.analysis;
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;
-  auto& M = model_;
   StepEnergy& e = energy_;
   e = StepEnergy{};
   e.kinetic0 = cached_step_ == s.step - 1 ? cached_kinetic_ : kinetic(v0);
@@ -440,7 +443,7 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
   cached_step_ = s.step;
   cached_kinetic_ = e.kinetic1;
   cached_strain_ = e.strain1;
-  ScratchVec du(M.dm), Ddu(M.dm);
+  ScratchVec du(model_.dm), Ddu(model_.dm);
   check_petsc(VecWAXPY(du, -1.0, u0, s.u), "VecWAXPY");
   PetscScalar x;
   check_petsc(VecDot(du, load_sum, &x), "VecDot");
@@ -448,7 +451,7 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
   check_petsc(VecSet(Ddu, 0.0), "VecSet");
   if (an.rayleigh_mass != 0.0 || an.rayleigh_stiffness != 0.0) {
     // D with the rotations the step's operator used.
-    check_petsc(assembly::apply(M.dm, M.layout, M.cells,
+    check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells,
                                 {an.rayleigh_stiffness, an.rayleigh_mass, lumped}, du, Ddu),
                 "apply");
     check_petsc(VecDot(du, Ddu, &x), "VecDot");
@@ -456,7 +459,7 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
   }
   // Supports do work only where they move: reactions rho = M a_mean + D v_mean + f_mean
   // - f_ext,mean on the prescribed DOFs (the equation of motion with the reaction).
-  const auto& rows = M.boundary.constraints.rows;
+  const auto& rows = model_.boundary.constraints.rows;
   const PetscScalar* d;
   check_petsc(VecGetArrayRead(du, &d), "VecGetArrayRead");
   PetscInt first;
@@ -466,9 +469,10 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
   check_petsc(VecRestoreArrayRead(du, &d), "VecRestoreArrayRead");
   MPI_Allreduce(MPI_IN_PLACE, &moving, 1, MPI_INT, MPI_LOR, comm_);
   if (moving) {
-    ScratchVec rho(M.dm), tmp(M.dm);
+    ScratchVec rho(model_.dm), tmp(model_.dm);
     check_petsc(VecWAXPY(tmp, -1.0, v0, s.v), "VecWAXPY");
-    check_petsc(assembly::apply(M.dm, M.layout, M.cells, {0.0, 1.0 / an.dt, lumped}, tmp, rho),
+    check_petsc(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0 / an.dt, lumped},
+                                tmp, rho),
                 "apply");
     check_petsc(VecAXPBYPCZ(rho, 1.0 / an.dt, -0.5, 1.0, Ddu, load_sum), "VecAXPBYPCZ");
     if (fbar) {

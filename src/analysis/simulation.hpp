@@ -9,7 +9,7 @@
 
 #include "analysis/energy.hpp"
 #include "analysis/model.hpp"
-#include "analysis/result_output.hpp"
+#include "analysis/state.hpp"
 #include "multigrid/gmg.hpp"
 #include "solve/linear_solver.hpp"
 

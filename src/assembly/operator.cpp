@@ -122,7 +122,7 @@ double strain_energy_local(const topology::DofLayout& D, const CellData& C, cons
 }
 
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
-                             const topology::Partition& P, const topology::DofLayout& D, Mat* A) {
+                             const topology::DofLayout& D, Mat* A) {
   PetscFunctionBeginUser;
   // Neighbour copies of each owned copy: all corners of all its incident cells. Every
   // rank has the whole (replicated) lattice, so cells of other ranks are visible too.
@@ -146,7 +146,6 @@ PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
     o_nnz[r] = PetscInt(nb.size()) - d_nnz[r];
     std::vector<PetscInt>().swap(nb);
   }
-  (void)P;
   PetscCall(MatCreate(comm, A));
   PetscCall(MatSetSizes(*A, 3 * D.num_owned, 3 * D.num_owned, PETSC_DETERMINE, PETSC_DETERMINE));
   PetscCall(MatSetType(*A, MATAIJ));

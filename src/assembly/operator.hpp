@@ -70,7 +70,6 @@ double strain_energy_local(const topology::DofLayout& layout, const CellData& ce
 
 /// An AIJ matrix with block size 3, preallocated exactly for the copy adjacency.
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& copies,
-                             const topology::Partition& partition,
                              const topology::DofLayout& layout, Mat* A);
 
 /// Zeroes A and assembles w_K K^ + w_M M into it.

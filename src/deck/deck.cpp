@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -1089,13 +1088,5 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
 }
 
 }  // namespace
-
-Deck load_deck(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, 0, "cannot open the deck file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse_deck(ss.str(), path);
-}
 
 }  // namespace hexcut::deck

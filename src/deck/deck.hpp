@@ -219,9 +219,6 @@ std::vector<geometry::GeometryOp> membership_ops(const Deck& deck);
 /// Throws InputError ("path:line: message").
 Deck parse_deck(const std::string& text, const std::string& path);
 
-/// Reads the file and parses it.
-Deck load_deck(const std::string& path);
-
 const char* to_string(Solver::Type t);
 
 }  // namespace hexcut::deck

@@ -716,7 +716,7 @@ void Multigrid::build_coarsest() {
   // its symbolic phase and redo only the numeric one.
   if (!coarse_matrix_)
     check_petsc(
-        assembly::create_matrix(comm_, lev.copies, lev.partition, lev.layout, &coarse_matrix_),
+        assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_),
         "create_matrix");
   else
     check_petsc(MatZeroEntries(coarse_matrix_), "MatZeroEntries");

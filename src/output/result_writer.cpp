@@ -765,7 +765,7 @@ void ResultWriter::end_step() {
   rewrite_xdmf();
 }
 
-void ResultWriter::append_solve_open(const SolveRecord& r) {
+void ResultWriter::append_solve_open(const SolverHistoryRow& r) {
   file_.append_1d("/solver_history/step", &r.step, 1);
   file_.append_1d("/solver_history/time", &r.time, 1);
   file_.append_1d("/solver_history/iterations", &r.iterations, 1);
@@ -776,7 +776,7 @@ void ResultWriter::append_solve_open(const SolveRecord& r) {
   file_.append_1d("/solver_history/converged_reason", &r.converged_reason, 1);
 }
 
-void ResultWriter::append_solve(const SolveRecord& record) {
+void ResultWriter::append_solve(const SolverHistoryRow& record) {
   if (step_open_) {
     append_solve_open(record);
     return;

@@ -59,7 +59,7 @@ struct RunInfo {
 };
 
 /// One row of /solver_history (one linear/nonlinear solve).
-struct SolveRecord {
+struct SolverHistoryRow {
   std::int64_t step = 0;
   double time = 0.0;  // [s]
   std::int64_t iterations = 0;
@@ -179,7 +179,7 @@ class ResultWriter {
 
   /// Appends one row to /solver_history. All ranks pass identical values. Works inside
   /// or outside an open step (outside: opens and closes the file).
-  void append_solve(const SolveRecord& record);
+  void append_solve(const SolverHistoryRow& record);
 
   /// Writes a checkpoint: u, v, a (num_points() x 3 each, the current mesh's point
   /// count; this rank's rows [point_offset, point_offset + local_points); the ranks' rows
@@ -222,7 +222,7 @@ class ResultWriter {
   void write_field(std::int64_t step, const std::string& name, const char* centering,
                    std::int64_t global_rows, int cols, std::int64_t row_offset,
                    std::int64_t local_rows, const double* data, const std::string& unit);
-  void append_solve_open(const SolveRecord& record);
+  void append_solve_open(const SolverHistoryRow& record);
   void require_open_step(std::int64_t step, const std::string& what) const;
   /// Makes the mesh group `mesh` of `f` current: reads its sizes.
   void use_mesh(H5File& f, const std::string& mesh);

@@ -255,7 +255,7 @@ TEST(OutputResultWriter, CheckpointRoundTripAndTruncate) {
     ResultWriter w = ResultWriter::create(path, MPI_COMM_SELF, mesh.data, {"", ""});
     EXPECT_FALSE(w.checkpoint_info().has_value());
     for (int step = 0; step < 4; ++step) {
-      SolveRecord rec;
+      SolverHistoryRow rec;
       rec.step = step;
       rec.iterations = step;
       w.append_solve(rec);
@@ -301,7 +301,7 @@ TEST(OutputResultWriter, CheckpointRoundTripAndTruncate) {
   EXPECT_EQ(xmf.find("step_000002"), std::string::npos);
 
   // Continue after the restart: step 2 again, history appended after the kept rows.
-  SolveRecord rec;
+  SolverHistoryRow rec;
   rec.step = 2;
   w.append_solve(rec);
   w.begin_step(2, 1.0);

@@ -28,7 +28,7 @@ using hexcut::output::MeshData;
 using hexcut::output::ResultWriter;
 using hexcut::output::RunInfo;
 using hexcut::output::Slab;
-using hexcut::output::SolveRecord;
+using hexcut::output::SolverHistoryRow;
 
 namespace {
 
@@ -100,8 +100,8 @@ void write_fields(ResultWriter& writer, int s, const Slab& P, const Slab& C,
                           0, links.data());
 }
 
-SolveRecord solve_record(int s) {
-  SolveRecord rec;
+SolverHistoryRow solve_record(int s) {
+  SolverHistoryRow rec;
   rec.step = s;
   rec.time = 0.25 * s;
   rec.iterations = 10 + s;
