@@ -26,8 +26,8 @@ struct State {
 PetscErrorCode create_state(DM dm, State* s);
 PetscErrorCode destroy_state(State* s);
 
-/// Stress of the local cells from the global displacement (ghosts exchanged through the
-/// DM). Corotational runs use each cell's own rotation (design.md §4 "Stress").
+/// Stress of the local cells from the global displacement (ghosts exchanged through the DM).
+/// Corotational runs use each cell's own rotation (doc/theory.md, "Stress").
 struct CellStressFields {
   std::vector<double> sigma, von_mises, pressure, principal, directions;  // 6,1,1,3,9 per cell
 };
