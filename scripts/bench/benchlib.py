@@ -42,9 +42,10 @@ def residual_history(deck_text, work, name, extra=()):
     return [r[2] for r in rows], [r[3] / r0 for r in rows]
 
 
-# The theses' multigrid stress test (issue 4): an n^3 cube clamped at its base, cut from
-# the top halfway down by 3 + 3 vertical blades into 16 rods, spun about the vertical
-# axis. The blades lie on cell faces 3 cells off the coarse cells' boundaries.
+# The theses' multigrid stress test (issue 4; Dick 2012, sec. 4.7.2): an n^3 cube clamped
+# at its base, cut from the top halfway down by 3 + 3 vertical blades into 16 rods, spun
+# about the vertical axis. The blades lie on cell faces 3 cells off the coarse cells'
+# boundaries.
 CUBE_RODS = """lattice: {{h: {h}, dims: [{n}, {n}, {n}]}}
 materials: {{rubber: {{E: 1.0e6, nu: 0.3, rho: 1000}}}}
 geometry: [{{add: {{box: {{min: [0, 0, 0], max: [1, 1, 1]}}}}}}]

@@ -1,9 +1,9 @@
-// Cuts during a run (design.md §6, §2 "a cut event changes the lattice links and then
-// rebuilds topology"): the deck's cut events are applied in the current deformed
-// configuration, then vertex copies, DOF layout, DM, cell and boundary data are rebuilt
-// and the state (u, v, a) is carried from each old vertex copy to the new copies it
-// split into, so no state is lost and momentum is unchanged. Also the pieces (connected
-// components) of the body and whether each is supported.
+// Cuts during a run (doc/theory.md, "Cutting", "Pipeline": a cut event changes the lattice links
+// and then rebuilds the topology): the deck's cut events are applied in the current deformed
+// configuration, then vertex copies, DOF layout, DM, cell and boundary data are rebuilt and the
+// state (u, v, a) is carried from each old vertex copy to the new copies it split into, so no state
+// is lost and momentum is unchanged. Also the pieces (connected components) of the body and whether
+// each is supported.
 #pragma once
 
 #include <Eigen/Geometry>

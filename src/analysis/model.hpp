@@ -1,7 +1,7 @@
-// Setup of the discrete model, stage by stage (design.md §2): deck -> voxel grid ->
-// lattice (cells, links) -> vertex copies -> partition -> DOF layout + DM -> cell data
-// and boundary data. Every rank builds the same lattice and topology (they are small
-// integer arrays) and keeps the operator data of its own cells only.
+// Setup of the discrete model, stage by stage (doc/theory.md, "Pipeline"): deck -> voxel grid ->
+// lattice (cells, links) -> vertex copies -> partition -> DOF layout + DM -> cell data and boundary
+// data. Every rank builds the same lattice and topology (they are small integer arrays) and keeps
+// the operator data of its own cells only.
 #pragma once
 
 #include <petscdm.h>

@@ -18,8 +18,8 @@
 
 namespace hexcut::analysis {
 
-/// Stress of the local cells from the global displacement (ghosts exchanged through the
-/// DM). Corotational runs use each cell's own rotation (design.md §4 "Stress").
+/// Stress of the local cells from the global displacement (ghosts exchanged through the DM).
+/// Corotational runs use each cell's own rotation (doc/theory.md, "Stress").
 struct CellStressFields {
   std::vector<double> sigma, von_mises, pressure, principal, directions;  // 6,1,1,3,9 per cell
 };

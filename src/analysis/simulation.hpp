@@ -1,6 +1,7 @@
-// The analyses (design.md §4): static (linear, or corotational by fixed-point
-// iteration per load step) and dynamic (Newmark beta = 1/4, gamma = 1/2, Rayleigh
-// damping, lumped or consistent mass, linear or corotational).
+// The analyses (doc/theory.md, "Static analysis", "Dynamics: Newmark", "Mid-point corotational
+// step"): static (linear, or corotational by fixed-point iteration per load step) and dynamic
+// (Newmark beta = 1/4, gamma = 1/2, Rayleigh damping, lumped or consistent mass, linear or
+// corotational).
 #pragma once
 
 #include <petscksp.h>

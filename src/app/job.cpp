@@ -255,7 +255,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
   }
-  // Cuts (design.md §6). Static analyses apply every cut to the undeformed body before
+  // Cuts (doc/theory.md, "Cutting"). Static analyses apply every cut to the undeformed body before
   // solving; dynamic ones apply each when its time comes, in the deformed configuration.
   an::Cutter cutter(deck, model.lattice);
   std::unique_ptr<an::ResultOutput> out;

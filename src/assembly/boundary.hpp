@@ -1,6 +1,6 @@
-// Supports and loads (design.md §4 "Dirichlet", "Loads"): which DOFs are prescribed
-// and the external force vector at a time t. Selectors are resolved once, after
-// voxelization; a selector that selects nothing is an input error naming its deck line.
+// Supports and loads (doc/theory.md, "Supports and loads"): which DOFs are prescribed and the
+// external force vector at a time t. Selectors are resolved once, after voxelization; a selector
+// that selects nothing is an input error naming its deck line.
 #pragma once
 
 #include <petscdm.h>
@@ -76,8 +76,8 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& layout, const Ce
 /// vertex throws InputError naming its deck line, on every rank (collective).
 PetscErrorCode set_prescribed_values(const Constraints& c, double t, double scale, Vec x);
 
-/// Symmetric elimination of the prescribed rows (design.md §4): the rows and columns of
-/// A become identity. Call once per assembly of A.
+/// Symmetric elimination of the prescribed rows (doc/theory.md, "Supports and loads"): the rows and
+/// columns of A become identity. Call once per assembly of A.
 PetscErrorCode constrain_matrix(const Constraints& c, Mat A);
 
 /// The right-hand side that matches constrain_matrix: b_free -= A_free,fixed u0 and

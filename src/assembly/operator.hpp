@@ -1,6 +1,6 @@
-// The system operator A = w_K K^ + w_M M of the rank's cells (design.md §4), both as an
-// assembled PETSc AIJ matrix (block size 3) and as an element-by-element action on
-// local vectors. K^ = sum R^ h(lambda K_lambda + mu K_mu) R^T uses each cell's rotation
+// The system operator A = w_K K^ + w_M M of the rank's cells (doc/theory.md, "Elements",
+// "Corotation"), both as an assembled PETSc AIJ matrix (block size 3) and as an element-by-element
+// action on local vectors. K^ = sum R^ h(lambda K_lambda + mu K_mu) R^T uses each cell's rotation
 // (identity for linear elasticity); M is the consistent or lumped mass.
 #pragma once
 
@@ -56,8 +56,8 @@ element::FineCell fine_cell_view(const CellData& cells, std::size_t e, const Ope
 /// Sets every rotation to the identity (linear elasticity).
 void set_identity_rotations(CellData& cells);
 
-/// Rotations from the displacement of the local copies (3 per local copy): polar factor
-/// of each cell's centre deformation gradient (design.md §4).
+/// Rotations from the displacement of the local copies (3 per local copy): polar factor of each
+/// cell's centre deformation gradient (doc/theory.md, "Corotation").
 void update_rotations(const topology::DofLayout& layout, const double* u_local, CellData& cells);
 
 /// Strain energy of the rank's cells, sum_e 1/2 d_e^T K_e d_e with the corotated

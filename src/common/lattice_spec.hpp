@@ -1,5 +1,5 @@
-// The Cartesian lattice every stage shares (design.md §3): nx*ny*nz cubic cells of
-// edge h; cell (i,j,k) covers origin + h*[i,i+1]x[j,j+1]x[k,k+1].
+// The Cartesian lattice every stage shares (doc/theory.md, "Lattice, links and vertex copies"):
+// nx*ny*nz cubic cells of edge h; cell (i,j,k) covers origin + h*[i,i+1]x[j,j+1]x[k,k+1].
 #pragma once
 
 #include <Eigen/Core>

@@ -1,7 +1,7 @@
-// Blades as triangle soups and the schedule of cut events (design.md §6). A deck cut
-// becomes one event (mesh, polygon, cylinder: at its time) or, for a scalpel swept over
-// a window, one event per path segment: the quad between two consecutive positions of
-// the edge, at the time the edge reaches the second one.
+// Blades as triangle soups and the schedule of cut events (doc/theory.md, "Cutting"). A deck cut
+// becomes one event (mesh, polygon, cylinder: at its time) or, for a scalpel swept over a window,
+// one event per path segment: the quad between two consecutive positions of the edge, at the time
+// the edge reaches the second one.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,8 +1,8 @@
-// An AABB tree over the lattice's cells for blade queries (design.md §6). Each cell's box
-// covers its link segments: its centre and the centres of the + neighbours it is linked
-// to, in the deformed configuration. The tree's shape is built once from the reference
-// centres; refit() only recomputes the boxes bottom-up, which stays a good tree while
-// cells move moderately relative to each other.
+// An AABB tree over the lattice's cells for blade queries (doc/theory.md, "Cutting"). Each cell's
+// box covers its link segments: its centre and the centres of the + neighbours it is linked to, in
+// the deformed configuration. The tree's shape is built once from the reference centres; refit()
+// only recomputes the boxes bottom-up, which stays a good tree while cells move moderately relative
+// to each other.
 #pragma once
 
 #include <Eigen/Geometry>

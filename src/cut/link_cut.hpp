@@ -1,6 +1,7 @@
-// Link cutting (design.md §6): every connected link is the segment between the deformed
-// centres of its two cells; a blade triangle that crosses it disconnects the cells. The
-// Hermite data of the crossing (t, blade normal, cut id) are kept for the surfaces.
+// Link cutting (doc/theory.md, "Cutting"; Dick 2012, sec. 4.4.1): every connected link is the
+// segment between the deformed centres of its two cells; a blade triangle that crosses it
+// disconnects the cells. The Hermite data of the crossing (t, blade normal, cut id) are kept for
+// the surfaces.
 #pragma once
 
 #include <Eigen/Core>

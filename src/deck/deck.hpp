@@ -34,7 +34,7 @@ struct Material {
   double density = 0.0;         // rho [kg/m^3]
 };
 
-/// One geometry operation, applied in deck order (design.md §2 "geometry").
+/// One geometry operation, applied in deck order (doc/theory.md, "Voxelization").
 struct GeometryStep {
   enum class Kind { add, subtract, assign, image_labels, image_youngs };
   Kind kind = Kind::add;
@@ -164,7 +164,7 @@ struct Centrifugal {
   double omega = 0.0;              // angular velocity [rad/s]
 };
 
-/// A blade (design.md §6): the surface that disconnects the links it crosses.
+/// A blade (doc/theory.md, "Cutting"): the surface that disconnects the links it crosses.
 struct Blade {
   enum class Kind { mesh, polygon, scalpel, cylinder };
   Kind kind = Kind::polygon;

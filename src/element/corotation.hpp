@@ -1,4 +1,5 @@
-// Corotational element operators (design.md §4, dick L2809-3007).
+// Corotational element operators (doc/theory.md, "Corotation"; Dick 2012, ch. 2, sec. 2.2.5, eqs.
+// 2.89-2.92; doc/references.md).
 //
 // A cell with rotation R (polar factor of its centre deformation gradient) contributes
 //   A_e = R^ K R^T   and   b_e = -R^ K (R^T x - x)

@@ -1,5 +1,5 @@
-// Umbrella header of the element stage (design.md §4): reference Q1 matrices, centre-point
-// kinematics, corotation, stress recovery and Newmark coefficients.
+// Umbrella header of the element stage (doc/theory.md, "Elements" to "Stress"): reference Q1
+// matrices, centre-point kinematics, corotation, stress recovery and Newmark coefficients.
 #pragma once
 
 #include "element/corotation.hpp"

@@ -1,7 +1,7 @@
-// The operator of one fine cell, w_K R^ K R^T + w_M M, applied without forming the
-// rotated 24x24 matrix (design.md §5 "fine operator matrix-free"). Shared by the
-// element-by-element operator of the assembly stage and the multigrid's fine level, and
-// written as plain inline functions on raw arrays for a later CUDA backend.
+// The operator of one fine cell, w_K R^ K R^T + w_M M, applied without forming the rotated 24x24
+// matrix (doc/theory.md, "Geometric multigrid", "Operators"). Shared by the element-by-element
+// operator of the assembly stage and the multigrid's fine level, and written as plain inline
+// functions on raw arrays for a later CUDA backend.
 #pragma once
 
 #include "element/host_device.hpp"

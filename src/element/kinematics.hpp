@@ -1,5 +1,5 @@
-// Material parameters and centre-point kinematics of a Q1 cube (design.md §4).
-// Symmetric tensors are 6 components in ParaView order (xx, yy, zz, xy, yz, xz) with
+// Material parameters and centre-point kinematics of a Q1 cube (doc/theory.md, "Elements",
+// "Corotation"). Symmetric tensors are 6 components in ParaView order (xx, yy, zz, xy, yz, xz) with
 // tensor (not engineering) shear components; 3x3 matrices are row-major, M[3*i + j].
 #pragma once
 

@@ -1,10 +1,11 @@
 // Newmark time integration, beta = 1/4, gamma = 1/2 (average acceleration: unconditionally
-// stable, no numerical damping), in the consistent form of design.md §4. With Rayleigh
-// damping D = alpha1 M + alpha2 K one step solves A u^{n+1} = b with
+// stable, no numerical damping), in the consistent form of doc/theory.md, "Dynamics: Newmark". With
+// Rayleigh damping D = alpha1 M + alpha2 K one step solves A u^{n+1} = b with
 //   A = a0 M + a1 D + K^
 //   b = f + b^ + M (a0 u^n + a2 v^n + a^n) + D (a1 u^n + v^n)
 // and then updates velocity and acceleration with newmark_update().
-// (dick (2.97) and wu (2.27) print the v^n term with a wrong power of dt.)
+// (Dick 2012, eq. 2.97a, and Wu 2014, eq. 2.27, print the v^n term with a wrong power of dt;
+// doc/references.md.)
 #pragma once
 
 #include "element/host_device.hpp"

@@ -1,4 +1,4 @@
-// Reference matrices of the trilinear (Q1) hexahedron on a cube (design.md §4).
+// Reference matrices of the trilinear (Q1) hexahedron on a cube (doc/theory.md, "Elements").
 //
 // Conventions shared by every stage:
 //  - corner q = a + 2b + 4c for local offsets (a,b,c) in {0,1}^3 (x fastest); corner q

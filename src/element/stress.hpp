@@ -1,4 +1,4 @@
-// Cell stress recovery at the centre and derived fields (design.md §4).
+// Cell stress recovery at the centre and derived fields (doc/theory.md, "Stress").
 #pragma once
 
 #include <cmath>

@@ -1,7 +1,7 @@
-// Where a segment leaves the body that a list of geometry operations builds, and the
-// body's outward normal there: the Hermite data of the outer boundary for the surfaces
-// (design.md §6). Membership is the one voxelize.hpp's apply() gives cell centres, so
-// the crossing lies between a material cell's centre and its empty neighbour's centre.
+// Where a segment leaves the body that a list of geometry operations builds, and the body's outward
+// normal there: the Hermite data of the outer boundary for the surfaces (doc/theory.md, "Surfaces
+// (dual contouring)"). Membership is the one voxelize.hpp's apply() gives cell centres, so the
+// crossing lies between a material cell's centre and its empty neighbour's centre.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,6 +1,5 @@
-// Solid shapes for voxelization (design.md §3): anything that can answer "is this
-// point inside?". Cells are classified by their centre, so a shape is sampled, never
-// integrated.
+// Solid shapes for voxelization (doc/theory.md, "Voxelization"): anything that can answer "is this
+// point inside?". Cells are classified by their centre, so a shape is sampled, never integrated.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,9 +30,10 @@ class Shape {
   /// Box that contains every inside point (may be infinite, see Aabb).
   virtual Aabb bounds() const = 0;
 
-  /// Unit outward normal of the surface near p (p is meant to lie on or close to the
-  /// surface): the Hermite normal of the outer boundary (design.md §6, geometry/crossing).
-  /// Zero when the shape has no normal to offer (the default, e.g. voxel images).
+  /// Unit outward normal of the surface near p (p is meant to lie on or close to the surface): the
+  /// Hermite normal of the outer boundary (doc/theory.md, "Surfaces (dual contouring)",
+  /// geometry/crossing). Zero when the shape has no normal to offer (the default, e.g. voxel
+  /// images).
   virtual Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const;
 
   /// Classifies the cells of the half-open index box [lo, hi) of `spec` by their centre:

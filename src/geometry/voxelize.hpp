@@ -1,5 +1,5 @@
-// Voxelization: builds the per-cell material table of the lattice from a sequence of
-// CSG-like operations (design.md §3).
+// Voxelization: builds the per-cell material table of the lattice from a sequence of CSG-like
+// operations (doc/theory.md, "Voxelization").
 #pragma once
 
 #include <cstdint>

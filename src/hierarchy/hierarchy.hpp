@@ -1,10 +1,9 @@
-// The multigrid hierarchy (design.md §5). Level 0 is the simulation lattice. A cell of
-// level l+1 is a connected component (under the links) of the level-l cells in one
-// 2x2x2 block, so several coarse cells may share a position: pieces separated by empty
-// space or, later, by cuts get their own coarse cells and never share coarse DOFs.
-// Two coarse cells are linked iff some pair of their children is. Vertex copies are
-// rebuilt per level exactly as on the fine level. The "naive" variant merges by
-// position only, for comparison.
+// The multigrid hierarchy (doc/theory.md, "Geometric multigrid"; Dick 2012, sec. 4.5.1). Level 0 is
+// the simulation lattice. A cell of level l+1 is a connected component (under the links) of the
+// level-l cells in one 2x2x2 block, so several coarse cells may share a position: pieces separated
+// by empty space or, later, by cuts get their own coarse cells and never share coarse DOFs. Two
+// coarse cells are linked iff some pair of their children is. Vertex copies are rebuilt per level
+// exactly as on the fine level. The "naive" variant merges by position only, for comparison.
 //
 // Every level is distributed like the fine one: a coarse cell lives on the rank of its
 // children (they share a partition super-block as long as the number of levels is at

@@ -1,6 +1,6 @@
-// Material cells and the face links between them (design.md §3). Only material cells
-// are stored; they are numbered in lattice order (x fastest), so face neighbours are
-// near in memory. Links are the only thing a cut changes (src/cut).
+// Material cells and the face links between them (doc/theory.md, "Lattice, links and vertex
+// copies"). Only material cells are stored; they are numbered in lattice order (x fastest), so face
+// neighbours are near in memory. Links are the only thing a cut changes (src/cut).
 #pragma once
 
 #include <array>
@@ -14,11 +14,11 @@ namespace hexcut::lattice {
 /// Link bits: cell connected to its +x, +y, +z face neighbour.
 enum LinkBit : std::uint8_t { kLinkX = 1, kLinkY = 2, kLinkZ = 4 };
 
-/// Hermite data of a link a blade has cut (design.md §3, §6): the link from `cell` to
-/// its + neighbour in direction `dir` was crossed at parameter t along the segment from
-/// this cell's centre to the neighbour's (both in the configuration at the time of the
-/// cut), by a blade with unit normal `normal` (reference frame). Cut ids start at 1
-/// (0 is the original boundary in surface output).
+/// Hermite data of a link a blade has cut (doc/theory.md, "Cutting", "Surfaces (dual contouring)"):
+/// the link from `cell` to its + neighbour in direction `dir` was crossed at parameter t along the
+/// segment from this cell's centre to the neighbour's (both in the configuration at the time of the
+/// cut), by a blade with unit normal `normal` (reference frame). Cut ids start at 1 (0 is the
+/// original boundary in surface output).
 struct CutLink {
   std::int32_t cell = -1;
   std::int32_t dir = 0;

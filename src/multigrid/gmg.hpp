@@ -1,4 +1,5 @@
-// hexcut's matrix-free geometric multigrid (design.md §5), as a PETSc PCSHELL.
+// hexcut's matrix-free geometric multigrid (doc/theory.md, "Geometric multigrid"), as a PETSc
+// PCSHELL.
 //
 // Level 0 is the simulation's own discretization, applied matrix-free from per-cell
 // lambda, mu, rho and rotation (nothing 24x24 is stored per fine cell). Coarse levels

@@ -1,6 +1,7 @@
-// Per-cell and per-vertex kernel bodies of the geometric multigrid (design.md §5). Plain
-// inline functions on raw arrays, free of PETSc and STL containers, so a CUDA backend
-// can run the same bodies (HEXCUT_HD marks them __host__ __device__ under nvcc).
+// Per-cell and per-vertex kernel bodies of the geometric multigrid (doc/theory.md, "Geometric
+// multigrid", "Kernel bodies for a CUDA backend"). Plain inline functions on raw arrays, free of
+// PETSc and STL containers, so a CUDA backend can run the same bodies (HEXCUT_HD marks them
+// __host__ __device__ under nvcc).
 //
 // Conventions: corner q = a + 2b + 4c (x fastest), element DOF 3q + d, 24x24 matrices
 // row-major. The child of a coarse cell in octant o = a + 2b + 4c is the fine cell at

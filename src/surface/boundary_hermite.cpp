@@ -1,6 +1,7 @@
-// Hermite data of the outer boundary from the deck's geometry (design.md §6): the cells
-// were classified by their centres, so the body's surface crosses each boundary face's
-// centre-to-centre segment; geometry::find_crossing locates it on the same membership.
+// Hermite data of the outer boundary from the deck's geometry (doc/theory.md, "Surfaces (dual
+// contouring)", "Boundary Hermite data"): the cells were classified by their centres, so the body's
+// surface crosses each boundary face's centre-to-centre segment; geometry::find_crossing locates it
+// on the same membership.
 #include <algorithm>
 #include <map>
 #include <set>

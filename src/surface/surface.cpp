@@ -1,8 +1,8 @@
-// Dual contouring on the link grid (design.md §6, wu §4.3.2; doc/theory.md "Surfaces").
-// The primal grid is the graph of cell centres and links; its dual cells are the cubes
-// around lattice vertices, and a face between two cells is the dual of their link. The
-// vertex copies already are the material components of each dual cell, so a surface
-// vertex is a vertex copy, and a face's quad joins the copies at its 4 lattice vertices.
+// Dual contouring on the link grid (Wu 2014, sec. 4.3.2; doc/theory.md, "Surfaces (dual
+// contouring)"). The primal grid is the graph of cell centres and links; its dual cells are the
+// cubes around lattice vertices, and a face between two cells is the dual of their link. The vertex
+// copies already are the material components of each dual cell, so a surface vertex is a vertex
+// copy, and a face's quad joins the copies at its 4 lattice vertices.
 #include "surface/surface.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -1,10 +1,9 @@
-// Cut and boundary surfaces by dual contouring on the link grid (design.md §6,
-// doc/theory.md "Surfaces"). Every face between a material cell and something it is not
-// linked to (an empty or outside neighbour, or a cell across a cut) becomes a quad whose
-// corners are the surface vertices of the vertex copies at the face's 4 lattice vertices.
-// A surface vertex minimises the quadratic error of the Hermite data (crossing point and
-// normal) of the faces around its copy, so it sits on the cut or the body's surface
-// rather than on the voxel staircase.
+// Cut and boundary surfaces by dual contouring on the link grid (Wu 2014, sec. 4.3.2;
+// doc/theory.md, "Surfaces (dual contouring)"). Every face between a material cell and something it
+// is not linked to (an empty or outside neighbour, or a cell across a cut) becomes a quad whose
+// corners are the surface vertices of the vertex copies at the face's 4 lattice vertices. A surface
+// vertex minimises the quadratic error of the Hermite data (crossing point and normal) of the faces
+// around its copy, so it sits on the cut or the body's surface rather than on the voxel staircase.
 #pragma once
 
 #include <array>

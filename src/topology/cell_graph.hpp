@@ -1,7 +1,7 @@
-// Cells of one lattice level and the face links between them (design.md §3, §5). On
-// the simulation lattice every position holds at most one cell; on coarse multigrid
-// levels several cells (connected components of one 2x2x2 block) may share a position,
-// so links are explicit neighbour lists rather than bits.
+// Cells of one lattice level and the face links between them (doc/theory.md, "Lattice, links and
+// vertex copies", "Geometric multigrid"). On the simulation lattice every position holds at most
+// one cell; on coarse multigrid levels several cells (connected components of one 2x2x2 block) may
+// share a position, so links are explicit neighbour lists rather than bits.
 #pragma once
 
 #include <array>

@@ -1,7 +1,7 @@
-// DOF numbering and the rank-local view of the topology (design.md §3). Three DOFs
-// per vertex copy, interleaved (x,y,z), block size 3. PETSc's global numbering puts
-// each rank's owned copies in one contiguous range (rank order, then canonical order
-// within a rank). The local numbering is owned copies first, then ghosts.
+// DOF numbering and the rank-local view of the topology (doc/theory.md, "Parallel layout"). Three
+// DOFs per vertex copy, interleaved (x,y,z), block size 3. PETSc's global numbering puts each
+// rank's owned copies in one contiguous range (rank order, then canonical order within a rank). The
+// local numbering is owned copies first, then ghosts.
 //
 // The layout is exposed as a DMShell: global and local vectors and the ghost scatter,
 // so KSP monitors and viewers work on hexcut's vectors. A "natural" scatter maps the

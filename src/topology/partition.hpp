@@ -1,9 +1,9 @@
-// Distribution of cells and vertex copies over MPI ranks (design.md §3). The lattice
-// is cut into super-blocks of `superblock` cells per side and whole super-blocks go to
-// ranks (METIS k-way on the super-block face-adjacency graph, weighted by material cell
-// count), so every coarse cell of a multigrid hierarchy up to log2(superblock)+1
-// levels lies on one rank. A vertex copy is owned by the owner of its lowest-numbered
-// incident cell. Every rank computes the same partition from the same lattice.
+// Distribution of cells and vertex copies over MPI ranks (doc/theory.md, "Parallel layout"). The
+// lattice is cut into super-blocks of `superblock` cells per side and whole super-blocks go to
+// ranks (METIS k-way on the super-block face-adjacency graph, weighted by material cell count), so
+// every coarse cell of a multigrid hierarchy up to log2(superblock)+1 levels lies on one rank. A
+// vertex copy is owned by the owner of its lowest-numbered incident cell. Every rank computes the
+// same partition from the same lattice.
 #pragma once
 
 #include <cstdint>

@@ -1,9 +1,9 @@
-// Vertex copies (design.md §3, the virtual-node idea). Around each lattice vertex the
-// up-to-8 incident cells are grouped into connected components using only the links
-// among those 8 cells; each component gets its own copy (3 DOFs). Uncut solid gives one
-// copy per vertex; cells meeting only at an edge or a corner, or separated by a cut,
-// get separate copies. This module is the one place topology is derived from links:
-// the cut stage (src/cut) changes links and calls it again.
+// Vertex copies (doc/theory.md, "Lattice, links and vertex copies"; the virtual-node idea,
+// Jerabkova 2007, sec. 3.1; doc/references.md). Around each lattice vertex the up-to-8 incident
+// cells are grouped into connected components using only the links among those 8 cells; each
+// component gets its own copy (3 DOFs). Uncut solid gives one copy per vertex; cells meeting only
+// at an edge or a corner, or separated by a cut, get separate copies. This module is the one place
+// topology is derived from links: the cut stage (src/cut) changes links and calls it again.
 #pragma once
 
 #include <array>

@@ -375,9 +375,9 @@ TEST(Cuts, EverySolverCopesWithSeveralPieces) {
   }
 }
 
-/// The theses' multigrid stress test: a clamped cube cut from the top, halfway down, by
-/// a grid of 3 + 3 vertical blades into 16 rods that a spin about the vertical axis fans
-/// out. Returns GMG-CG iterations to rtol 1e-8 (cuts: false = the uncut cube) of the
+/// The theses' multigrid stress test (Dick 2012, sec. 4.7.2): a clamped cube cut from the top,
+/// halfway down, by a grid of 3 + 3 vertical blades into 16 rods that a spin about the vertical
+/// axis fans out. Returns GMG-CG iterations to rtol 1e-8 (cuts: false = the uncut cube) of the
 /// static solve, or (dt > 0) of the first Newmark step.
 PetscInt grid_cube_iterations(bool cuts, const char* options, double dt = 0.0) {
   const int n = 32;

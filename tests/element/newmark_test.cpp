@@ -8,7 +8,8 @@
 namespace hexcut::element {
 namespace {
 
-// One step of m u'' + c u' + k u = 0 with the design.md §4 formulas (D = c):
+// One step of m u'' + c u' + k u = 0 with the formulas of doc/theory.md, "Dynamics: Newmark"
+// (D = c):
 //   A = a0 m + a1 c + k,  b = m (a0 u + a2 v + a) + c (a1 u + v).
 struct Oscillator {
   double m, c, k;
