@@ -120,11 +120,12 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M
 }
 
 CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t, Model* M,
-                         State* s) {
+                         State* s, const std::function<void()>& follow_topology) {
   const auto r = cutter.cut_due(comm, t, *M, s->u);
   if (r.links > 0) {
     PetscLogEventBegin(events().rebuild, 0, 0, 0, 0);
     check_petsc(rebuild_after_cut(comm, deck, M, s), "rebuild_after_cut");
+    if (follow_topology) follow_topology();
     PetscLogEventEnd(events().rebuild, 0, 0, 0, 0);
   }
   return r;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <functional>
 #include <memory>
 
 #include "analysis/model.hpp"
@@ -52,11 +53,13 @@ std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& m
 /// came from. Collective.
 PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* model, State* state);
 
-/// Cutter::cut_due in the configuration of state->u, then rebuild_after_cut when links
-/// were cut (report.links > 0: the caller must rebuild what depends on the DM: the
-/// Simulation, ResultOutput::topology_changed). Collective.
+/// Cutter::cut_due in the configuration of state->u, then, when links were cut
+/// (report.links > 0), rebuild_after_cut and `follow_topology`, which rebuilds what
+/// depends on the DM (the Simulation, ResultOutput::topology_changed). Both run inside
+/// one hexcutRebuild event, logged once per cut. Collective.
 CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
-                         Model* model, State* state);
+                         Model* model, State* state,
+                         const std::function<void()>& follow_topology = {});
 
 /// Restart: applies cut links read from a checkpoint (in their cutting order) to the
 /// uncut model and rebuilds its topology; the model's DM is replaced, so create the state

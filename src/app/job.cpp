@@ -157,9 +157,8 @@ void require_same_physics(MPI_Comm comm, const deck::Deck& deck, const analysis:
 void prepare_static(MPI_Comm comm, const deck::Deck& deck, analysis::Cutter& cutter,
                     analysis::Model* model, analysis::State* state,
                     const std::function<void()>& follow_topology) {
-  const auto r = analysis::apply_due_cuts(comm, deck, cutter,
-                                          std::numeric_limits<double>::infinity(), model, state);
-  if (r.links > 0) follow_topology();
+  const auto r = analysis::apply_due_cuts(
+      comm, deck, cutter, std::numeric_limits<double>::infinity(), model, state, follow_topology);
   print_cut_report(comm, *model, r, 0.0);
   analysis::require_supported(analysis::find_pieces(comm, *model));
 }
@@ -267,12 +266,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     if (out) out->topology_changed();
   };
   auto apply_cuts = [&](double t) {
-    const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state);
-    if (r.links > 0) {
-      PetscLogEventBegin(ev.rebuild, 0, 0, 0, 0);
-      follow_topology();
-      PetscLogEventEnd(ev.rebuild, 0, 0, 0, 0);
-    }
+    const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state, follow_topology);
     print_cut_report(comm, model, r, t);
   };
   // A static body its supports do not hold stops here, before the result file exists.

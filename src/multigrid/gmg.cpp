@@ -1,6 +1,7 @@
 #include "multigrid/gmg.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <set>
@@ -153,11 +154,20 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
                      const topology::VertexCopies& copies, const topology::Partition& partition,
                      const topology::DofLayout& layout, DM fine_dm, const Options& options)
     : comm_(comm), opt_(options) {
-  PetscClassId id;
-  check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
-  check_petsc(PetscLogEventRegister("gmgSetup", id, &ev_setup_), "event");
-  check_petsc(PetscLogEventRegister("gmgVcycle", id, &ev_apply_), "event");
-  check_petsc(PetscLogEventRegister("gmgSmooth", id, &ev_smooth_), "event");
+  // One class and one set of events for the process, however many hierarchies a run
+  // builds (one per cut), so -log_view sums them.
+  static const std::array<PetscLogEvent, 3> events = [] {
+    PetscClassId id;
+    std::array<PetscLogEvent, 3> e{};
+    check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
+    check_petsc(PetscLogEventRegister("gmgSetup", id, &e[0]), "event");
+    check_petsc(PetscLogEventRegister("gmgVcycle", id, &e[1]), "event");
+    check_petsc(PetscLogEventRegister("gmgSmooth", id, &e[2]), "event");
+    return e;
+  }();
+  ev_setup_ = events[0];
+  ev_apply_ = events[1];
+  ev_smooth_ = events[2];
   // Hierarchy construction counts as multigrid set-up (with update()'s operator build).
   PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
   const int rank = layout.rank;
@@ -715,9 +725,8 @@ void Multigrid::build_coarsest() {
   // The pattern never changes: re-filling the same matrix lets the factorization keep
   // its symbolic phase and redo only the numeric one.
   if (!coarse_matrix_)
-    check_petsc(
-        assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_),
-        "create_matrix");
+    check_petsc(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_),
+                "create_matrix");
   else
     check_petsc(MatZeroEntries(coarse_matrix_), "MatZeroEntries");
   double A[576];

@@ -5,6 +5,7 @@ the cut continues with --restart to the same result), a static deck with a
 piece the cut leaves unsupported stops with exit 3 naming the piece, and bad cut
 entries give 'deck.yaml:LINE: message' and exit 2."""
 import os
+import re
 import sys
 
 import h5py
@@ -30,8 +31,12 @@ def main():
     check = Checks()
 
     # The cut bar example: the cut at t = 0.1 s acts in step 20 (dt = 5 ms).
-    rc, out, err = run([os.path.join(SOURCE, "input/examples/cut_bar.yaml")], cwd=d)
+    rc, out, err = run([os.path.join(SOURCE, "input/examples/cut_bar.yaml"), "-log_view"], cwd=d)
     check(rc == 0 and "disconnected 16 links; 2 piece(s)" in out, f"cut_bar runs and cuts 16 links: {err.strip()}")
+    # -log_view: one cut is one link test and one rebuild (topology, solver, hierarchy).
+    counts = {e: re.search(rf"^{e}\s+(\d+)", out, re.M) for e in ("hexcutCutLinks", "hexcutRebuild")}
+    counts = {e: int(m.group(1)) if m else None for e, m in counts.items()}
+    check(counts == {"hexcutCutLinks": 1, "hexcutRebuild": 1}, f"events logged per cut: {counts}")
     if rc == 0:
         with h5py.File(f"{d}/results/cut_bar.h5", "r") as f:
             before = f["steps/000016"].attrs["mesh"].decode()
