@@ -9,6 +9,7 @@
 #include "common/mpi_gather.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
+#include "element/trilinear.hpp"
 #include "hexcut_version.hpp"
 
 namespace hexcut::analysis {
@@ -232,9 +233,7 @@ void ResultOutput::write_surface(const State& s) {
     const auto& xi = S.local[v];
     for (int d = 0; d < 3; ++d) x[3 * i + d] = S.position[v][d];
     for (int q = 0; q < 8; ++q) {
-      const auto o = topology::corner_offset(q);
-      double w = 1.0;
-      for (int d = 0; d < 3; ++d) w *= o[d] ? xi[d] : 1.0 - xi[d];
+      const double w = element::trilinear_weight(xi.data(), q);
       for (int d = 0; d < 3; ++d) x[3 * i + d] += w * u[3 * D.cell_corners[e][q] + d];
     }
   }

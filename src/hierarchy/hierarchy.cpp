@@ -4,30 +4,20 @@
 #include <cmath>
 #include <map>
 
+#include "element/trilinear.hpp"
 #include "topology/union_find.hpp"
 
 namespace hexcut::hierarchy {
 namespace {
 
 int octant_of(const std::array<std::int32_t, 3>& p) {
-  return (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1);
-}
-
-/// Weights of the 8 coarse corners at a point with coarse-local coordinates t in [0,1]^3.
-void trilinear(const double t[3], double w[8]) {
-  for (int j = 0; j < 8; ++j) {
-    w[j] = 1.0;
-    for (int d = 0; d < 3; ++d) w[j] *= ((j >> d) & 1) ? t[d] : 1.0 - t[d];
-  }
+  return element::parity_octant(p[0], p[1], p[2]);
 }
 
 }  // namespace
 
 double transfer_weight(int octant, int fine_corner, int coarse_corner) {
-  double t[3], w[8];
-  for (int d = 0; d < 3; ++d) t[d] = 0.5 * (((octant >> d) & 1) + ((fine_corner >> d) & 1));
-  trilinear(t, w);
-  return w[coarse_corner];
+  return element::child_weight(octant, fine_corner, coarse_corner);
 }
 
 topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode,

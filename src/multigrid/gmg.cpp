@@ -202,7 +202,7 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
     d->colour.resize(D.num_owned);
     for (std::int32_t i = 0; i < D.num_owned; ++i) {
       const auto& v = lev.copies.vertex[D.copies[i]];
-      d->colour[i] = (v[0] & 1) + 2 * (v[1] & 1) + 4 * (v[2] & 1);
+      d->colour[i] = element::parity_octant(v[0], v[1], v[2]);
       d->colour_list[d->colour[i]].push_back(i);
     }
     data_.push_back(std::move(d));
@@ -375,7 +375,7 @@ void Multigrid::update(const assembly::CellData& cells, const assembly::Operator
           unpack_symmetric(&fd.cell_matrix[kPackedSize * e], child);
         }
         const auto& p = fd.cell_pos[e];
-        galerkin_accumulate(child, (p[0] & 1) + 2 * (p[1] & 1) + 4 * (p[2] & 1), parent);
+        galerkin_accumulate(child, element::parity_octant(p[0], p[1], p[2]), parent);
       }
       pack_symmetric(parent, &d.cell_matrix[kPackedSize * C]);
     }

@@ -11,6 +11,7 @@
 #include "element/fine_cell.hpp"
 #include "element/host_device.hpp"
 #include "element/reference.hpp"
+#include "element/trilinear.hpp"
 
 namespace hexcut::multigrid {
 
@@ -19,16 +20,7 @@ using element::fine_row_block;
 using element::FineCell;
 using element::three_rows;
 
-/// Trilinear weight of coarse corner j at fine corner i of the child in octant o:
-/// w = prod_d (t_d if bit d of j else 1 - t_d), t_d = (o_d + i_d) / 2 in {0, 1/2, 1}.
-HEXCUT_HD inline double child_weight(int octant, int i, int j) {
-  double w = 1.0;
-  for (int d = 0; d < 3; ++d) {
-    const double t = 0.5 * double(((octant >> d) & 1) + ((i >> d) & 1));
-    w *= ((j >> d) & 1) ? t : 1.0 - t;
-  }
-  return w;
-}
+using element::child_weight;
 
 /// A_parent += W^T A_child W with W = kron(w, I3), w the 8x8 child weights of `octant`
 /// (A_child symmetric). w has 27 nonzeros of 64 (a fine corner lies on a coarse corner,
