@@ -158,6 +158,55 @@ std::string get_string(const Context& c, const YAML::Node& n, const std::string&
   return n.Scalar();
 }
 
+/// One deck spelling of an enum value; each enum has one table, read by get_enum and
+/// written by to_string.
+template <class E>
+struct EnumName {
+  E value;
+  const char* name;
+};
+
+/// The value the string at n names in `table`; otherwise an error listing the spellings
+/// ("'a' or 'b'", or "one of a, b, c").
+template <class E, std::size_t N>
+E get_enum(const Context& c, const YAML::Node& n, const std::string& what,
+           const EnumName<E> (&table)[N]) {
+  const std::string s = get_string(c, n, what);
+  for (const auto& e : table)
+    if (s == e.name) return e.value;
+  std::string list;
+  if (N == 2) {
+    list = std::string("'") + table[0].name + "' or '" + table[1].name + "'";
+  } else {
+    list = "one of ";
+    for (std::size_t i = 0; i < N; ++i) list += (i ? ", " : "") + std::string(table[i].name);
+  }
+  c.fail(n, what + " must be " + list);
+}
+
+template <class E, std::size_t N>
+const char* enum_name(E value, const EnumName<E> (&table)[N]) {
+  for (const auto& e : table)
+    if (e.value == value) return e.name;
+  return "?";
+}
+
+constexpr EnumName<Analysis::Type> kAnalysisTypes[] = {{Analysis::Type::static_, "static"},
+                                                       {Analysis::Type::dynamic, "dynamic"}};
+constexpr EnumName<Analysis::Formulation> kFormulations[] = {
+    {Analysis::Formulation::linear, "linear"},
+    {Analysis::Formulation::corotational, "corotational"}};
+constexpr EnumName<Analysis::Rotations> kRotations[] = {{Analysis::Rotations::iterated, "iterated"},
+                                                        {Analysis::Rotations::lagged, "lagged"}};
+constexpr EnumName<Analysis::Mass> kMasses[] = {{Analysis::Mass::lumped, "lumped"},
+                                                {Analysis::Mass::consistent, "consistent"}};
+constexpr EnumName<Solver::Type> kSolverTypes[] = {{Solver::Type::gmg, "gmg"},
+                                                   {Solver::Type::gmg_cycles, "gmg-cycles"},
+                                                   {Solver::Type::cg_jacobi, "cg-jacobi"},
+                                                   {Solver::Type::hypre, "hypre"},
+                                                   {Solver::Type::gamg, "gamg"},
+                                                   {Solver::Type::direct, "direct"}};
+
 bool get_bool(const Context& c, const YAML::Node& n, const std::string& what) {
   if (!n.IsScalar()) c.fail(n, what + " must be true or false");
   try {
@@ -724,22 +773,9 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
              {"type", "formulation", "rotations", "load_steps", "tolerance", "max_iterations", "dt",
               "steps", "end_time", "rayleigh", "mass", "energy_tolerance"});
   Analysis a;
-  const auto type = n["type"] ? get_string(c, n["type"], "analysis.type") : "static";
-  if (type == "static")
-    a.type = Analysis::Type::static_;
-  else if (type == "dynamic")
-    a.type = Analysis::Type::dynamic;
-  else
-    c.fail(n["type"], "analysis.type must be 'static' or 'dynamic'");
-  if (n["formulation"]) {
-    const auto f = get_string(c, n["formulation"], "analysis.formulation");
-    if (f == "linear")
-      a.formulation = Analysis::Formulation::linear;
-    else if (f == "corotational")
-      a.formulation = Analysis::Formulation::corotational;
-    else
-      c.fail(n["formulation"], "analysis.formulation must be 'linear' or 'corotational'");
-  }
+  if (n["type"]) a.type = get_enum(c, n["type"], "analysis.type", kAnalysisTypes);
+  if (n["formulation"])
+    a.formulation = get_enum(c, n["formulation"], "analysis.formulation", kFormulations);
   if (n["load_steps"]) {
     a.load_steps = get_int(c, n["load_steps"], "analysis.load_steps");
     if (a.load_steps < 1) c.fail(n["load_steps"], "analysis.load_steps must be >= 1");
@@ -779,27 +815,13 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
         c.fail(r, "rayleigh coefficients must be >= 0");
     }
     if (n["rotations"]) {
-      const auto r = get_string(c, n["rotations"], "analysis.rotations");
-      if (r == "iterated")
-        a.rotations = Analysis::Rotations::iterated;
-      else if (r == "lagged")
-        a.rotations = Analysis::Rotations::lagged;
-      else
-        c.fail(n["rotations"], "analysis.rotations must be 'iterated' or 'lagged'");
+      a.rotations = get_enum(c, n["rotations"], "analysis.rotations", kRotations);
       if (a.formulation != Analysis::Formulation::corotational)
         c.fail(n["rotations"], "analysis.rotations applies only to formulation: corotational");
     }
     if (n["energy_tolerance"])
       a.energy_tolerance = positive(c, n["energy_tolerance"], "analysis.energy_tolerance");
-    if (n["mass"]) {
-      const auto m = get_string(c, n["mass"], "analysis.mass");
-      if (m == "lumped")
-        a.mass = Analysis::Mass::lumped;
-      else if (m == "consistent")
-        a.mass = Analysis::Mass::consistent;
-      else
-        c.fail(n["mass"], "analysis.mass must be 'lumped' or 'consistent'");
-    }
+    if (n["mass"]) a.mass = get_enum(c, n["mass"], "analysis.mass", kMasses);
   } else {
     for (const char* k :
          {"dt", "steps", "end_time", "rayleigh", "mass", "rotations", "energy_tolerance"})
@@ -811,24 +833,7 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
 Solver parse_solver(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "solver", {"type", "rtol", "max_iterations", "cycles", "petsc_options"});
   Solver s;
-  if (n["type"]) {
-    const auto t = get_string(c, n["type"], "solver.type");
-    if (t == "cg-jacobi")
-      s.type = Solver::Type::cg_jacobi;
-    else if (t == "hypre")
-      s.type = Solver::Type::hypre;
-    else if (t == "gamg")
-      s.type = Solver::Type::gamg;
-    else if (t == "direct")
-      s.type = Solver::Type::direct;
-    else if (t == "gmg")
-      s.type = Solver::Type::gmg;
-    else if (t == "gmg-cycles")
-      s.type = Solver::Type::gmg_cycles;
-    else
-      c.fail(n["type"],
-             "solver.type must be one of gmg, gmg-cycles, cg-jacobi, hypre, gamg, direct");
-  }
+  if (n["type"]) s.type = get_enum(c, n["type"], "solver.type", kSolverTypes);
   if (n["cycles"]) {
     if (s.type != Solver::Type::gmg_cycles)
       c.fail(n["cycles"], "'cycles' applies only to solver type gmg-cycles");
@@ -996,21 +1001,7 @@ std::vector<geometry::GeometryOp> membership_ops(const Deck& deck) {
 }
 
 const char* to_string(Solver::Type t) {
-  switch (t) {
-    case Solver::Type::cg_jacobi:
-      return "cg-jacobi";
-    case Solver::Type::hypre:
-      return "hypre";
-    case Solver::Type::gamg:
-      return "gamg";
-    case Solver::Type::direct:
-      return "direct";
-    case Solver::Type::gmg:
-      return "gmg";
-    case Solver::Type::gmg_cycles:
-      return "gmg-cycles";
-  }
-  return "?";
+  return enum_name(t, kSolverTypes);
 }
 
 namespace {
