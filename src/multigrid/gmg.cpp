@@ -817,7 +817,8 @@ PetscErrorCode Multigrid::attach(PC pc) {
   PetscCall(PCShellSetContext(pc, this));
   PetscCall(PCShellSetApply(pc, pc_apply));
   PetscCall(PCShellSetView(pc, pc_view));
-  PetscCall(PCShellSetName(pc, "hexcut geometric multigrid (V-cycle)"));
+  PetscCall(PCShellSetName(pc, opt_.cycle_gamma == 2 ? "hexcut geometric multigrid (W-cycle)"
+                                                     : "hexcut geometric multigrid (V-cycle)"));
   PetscFunctionReturn(0);
 }
 
