@@ -54,17 +54,14 @@ std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& M
     centres[c] = L.spec.cell_centre(L.ijk[c][0], L.ijk[c][1], L.ijk[c][2]);
   if (!u) return centres;
   // Each rank moves its own cells, then all ranks exchange the displacements.
-  Vec ul;
-  check_petsc(DMGetLocalVector(M.dm, &ul), "DMGetLocalVector");
-  check_petsc(assembly::global_to_local(M.dm, u, ul), "global_to_local");
-  const PetscScalar* a;
-  check_petsc(VecGetArrayRead(ul, &a), "VecGetArrayRead");
   std::vector<std::array<double, 3>> mine(D.cells.size(), {0.0, 0.0, 0.0});
-  for (std::size_t e = 0; e < D.cells.size(); ++e)
-    for (int q = 0; q < 8; ++q)
-      for (int d = 0; d < 3; ++d) mine[e][d] += 0.125 * a[3 * D.cell_corners[e][q] + d];
-  check_petsc(VecRestoreArrayRead(ul, &a), "VecRestoreArrayRead");
-  check_petsc(DMRestoreLocalVector(M.dm, &ul), "DMRestoreLocalVector");
+  {
+    const assembly::LocalValues ul(M.dm, u);
+    const PetscScalar* a = ul.data();
+    for (std::size_t e = 0; e < D.cells.size(); ++e)
+      for (int q = 0; q < 8; ++q)
+        for (int d = 0; d < 3; ++d) mine[e][d] += 0.125 * a[3 * D.cell_corners[e][q] + d];
+  }
   const auto ids = allgather(comm, D.cells);
   const auto disp = allgather(comm, mine);
   for (std::size_t k = 0; k < ids.size(); ++k) centres[ids[k]] += Eigen::Vector3d(disp[k].data());

@@ -219,27 +219,24 @@ void ResultOutput::write_surface(const State& s) {
   Vec moved;
   check_petsc(VecCreateMPI(comm_, 3 * PetscInt(surface_mine_.size()), PETSC_DETERMINE, &moved),
               "VecCreateMPI");
-  Vec ul;
-  check_petsc(DMGetLocalVector(M.dm, &ul), "DMGetLocalVector");
-  check_petsc(assembly::global_to_local(M.dm, s.u, ul), "global_to_local");
-  const PetscScalar* u;
-  PetscScalar* x;
-  check_petsc(VecGetArrayRead(ul, &u), "VecGetArrayRead");
-  check_petsc(VecGetArray(moved, &x), "VecGetArray");
-  for (std::size_t i = 0; i < surface_mine_.size(); ++i) {
-    const auto v = surface_mine_[i];
-    const auto e =
-        std::size_t(std::lower_bound(D.cells.begin(), D.cells.end(), S.cell[v]) - D.cells.begin());
-    const auto& xi = S.local[v];
-    for (int d = 0; d < 3; ++d) x[3 * i + d] = S.position[v][d];
-    for (int q = 0; q < 8; ++q) {
-      const double w = element::trilinear_weight(xi.data(), q);
-      for (int d = 0; d < 3; ++d) x[3 * i + d] += w * u[3 * D.cell_corners[e][q] + d];
+  {
+    const assembly::LocalValues ul(M.dm, s.u);
+    const PetscScalar* u = ul.data();
+    PetscScalar* x;
+    check_petsc(VecGetArray(moved, &x), "VecGetArray");
+    for (std::size_t i = 0; i < surface_mine_.size(); ++i) {
+      const auto v = surface_mine_[i];
+      const auto e = std::size_t(std::lower_bound(D.cells.begin(), D.cells.end(), S.cell[v]) -
+                                 D.cells.begin());
+      const auto& xi = S.local[v];
+      for (int d = 0; d < 3; ++d) x[3 * i + d] = S.position[v][d];
+      for (int q = 0; q < 8; ++q) {
+        const double w = element::trilinear_weight(xi.data(), q);
+        for (int d = 0; d < 3; ++d) x[3 * i + d] += w * u[3 * D.cell_corners[e][q] + d];
+      }
     }
+    check_petsc(VecRestoreArray(moved, &x), "VecRestoreArray");
   }
-  check_petsc(VecRestoreArray(moved, &x), "VecRestoreArray");
-  check_petsc(VecRestoreArrayRead(ul, &u), "VecRestoreArrayRead");
-  check_petsc(DMRestoreLocalVector(M.dm, &ul), "DMRestoreLocalVector");
   auto& ns = surface_points_;
   check_petsc(VecScatterBegin(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
               "scatter");

@@ -35,28 +35,6 @@ class ScratchVec {
   Vec v_ = nullptr;
 };
 
-/// Read access to the local (ghosted) values of a global vector for the scope.
-class LocalValues {
- public:
-  LocalValues(DM dm, Vec u) : dm_(dm) {
-    check_petsc(DMGetLocalVector(dm_, &l_), "DMGetLocalVector");
-    check_petsc(assembly::global_to_local(dm_, u, l_), "global_to_local");
-    check_petsc(VecGetArrayRead(l_, &a_), "VecGetArrayRead");
-  }
-  ~LocalValues() {
-    VecRestoreArrayRead(l_, &a_);
-    DMRestoreLocalVector(dm_, &l_);
-  }
-  LocalValues(const LocalValues&) = delete;
-  LocalValues& operator=(const LocalValues&) = delete;
-  const PetscScalar* data() const { return a_; }
-
- private:
-  DM dm_;
-  Vec l_ = nullptr;
-  const PetscScalar* a_ = nullptr;
-};
-
 }  // namespace
 
 Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
@@ -115,7 +93,7 @@ void Simulation::assemble(const assembly::OperatorWeights& w) {
 }
 
 void Simulation::refresh_rotations(Vec u) {
-  const LocalValues ul(model_.dm, u);
+  const assembly::LocalValues ul(model_.dm, u);
   assembly::update_rotations(model_.layout, ul.data(), model_.cells);
 }
 
@@ -518,7 +496,7 @@ double Simulation::kinetic(Vec v) {
 double Simulation::strain_energy(Vec u) {
   double w = 0.0;
   {
-    const LocalValues ul(model_.dm, u);
+    const assembly::LocalValues ul(model_.dm, u);
     w = assembly::strain_energy_local(model_.layout, model_.cells, ul.data(), corotational());
   }
   MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_);

@@ -9,6 +9,7 @@
 
 #include <vector>
 
+#include "common/petsc_check.hpp"
 #include "element/fine_cell.hpp"
 #include "lattice/lattice.hpp"
 #include "topology/dof_layout.hpp"
@@ -111,5 +112,30 @@ PetscErrorCode reference_positions(DM dm, const lattice::Lattice& lattice,
 
 /// Scatter a global vector to a local array (owned + ghosts), through the DM.
 PetscErrorCode global_to_local(DM dm, Vec global, Vec local);
+
+/// Read access to the local (owned + ghost) values of a global vector of `dm` for the
+/// scope: a local vector borrowed from the DM, filled by global_to_local. Throws
+/// std::runtime_error (check_petsc) when PETSc fails. Collective on the DM.
+class LocalValues {
+ public:
+  LocalValues(DM dm, Vec global) : dm_(dm) {
+    check_petsc(DMGetLocalVector(dm_, &l_), "DMGetLocalVector");
+    check_petsc(global_to_local(dm_, global, l_), "global_to_local");
+    check_petsc(VecGetArrayRead(l_, &a_), "VecGetArrayRead");
+  }
+  ~LocalValues() {
+    VecRestoreArrayRead(l_, &a_);
+    DMRestoreLocalVector(dm_, &l_);
+  }
+  LocalValues(const LocalValues&) = delete;
+  LocalValues& operator=(const LocalValues&) = delete;
+  /// 3 values per local vertex copy, in the layout's local order.
+  const PetscScalar* data() const { return a_; }
+
+ private:
+  DM dm_;
+  Vec l_ = nullptr;
+  const PetscScalar* a_ = nullptr;
+};
 
 }  // namespace hexcut::assembly
