@@ -101,7 +101,8 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M
       int q = 0;
       while (M->copies.cell_corners[cell][q] != copy) ++q;
       const auto k = old_local[old_copies.cell_corners[cell][q]];
-      if (k < 0) SETERRQ(comm, PETSC_ERR_PLIB, "cut: old vertex copy not local to the new owner");
+      PetscCheck(k >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                 "cut: old vertex copy not local to the new owner");
       for (int d = 0; d < 3; ++d) n[3 * i + d] = o[3 * k + d];
     }
     PetscCall(VecRestoreArray(to, &n));

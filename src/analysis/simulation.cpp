@@ -7,6 +7,7 @@
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/newmark.hpp"
+#include "multigrid/pc_hexcut.hpp"
 
 namespace hexcut::analysis {
 namespace {
@@ -40,11 +41,16 @@ class ScratchVec {
 Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {
   // Option errors (an unknown type, a value that is not a number) are input errors.
+  PC pc;
+  PetscBool hexcut_pc = PETSC_FALSE;
   parse_petsc_options([&] {
     check_petsc(solve::create_solver(comm, model.dm, deck.solver, &ksp_), "create_solver");
+    check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");
+    check_petsc(PetscObjectTypeCompare((PetscObject)pc, multigrid::PCHEXCUT, &hexcut_pc), "type");
   });
-  if (uses_multigrid()) {
-    auto options = parse_petsc_options([] { return multigrid::read_options(); });
+  if (hexcut_pc) {
+    multigrid::Options options;
+    check_petsc(multigrid::pc_get_options(pc, &options), "pc_get_options");
     // After cuts, coarse cells may be wider than the pieces (rods, slivers): their coarse
     // spaces approximate bending poorly, and a W-cycle solves those levels better. For
     // static solves that pays (32^3 cube cut into 16 rods, 4 levels: 11 CG iterations
@@ -55,17 +61,14 @@ Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
       options.cycle_gamma = 2;
     mg_ = std::make_unique<multigrid::Multigrid>(comm, model.lattice, model.copies, model.partition,
                                                  model.layout, model.dm, options);
-    PC pc;
-    check_petsc(KSPGetPC(ksp_, &pc), "KSPGetPC");
-    check_petsc(mg_->attach(pc), "attach");
+    check_petsc(multigrid::pc_set_multigrid(pc, mg_.get()), "pc_set_multigrid");
   } else {
     check_petsc(assembly::create_matrix(comm, model.copies, model.layout, &A_), "create_matrix");
   }
 }
 
 bool Simulation::uses_multigrid() const {
-  return deck_.solver.type == deck::Solver::Type::gmg ||
-         deck_.solver.type == deck::Solver::Type::gmg_cycles;
+  return mg_ != nullptr;
 }
 
 Simulation::~Simulation() {
@@ -81,7 +84,12 @@ void Simulation::assemble(const assembly::OperatorWeights& w) {
   EventScope scope(events().assembly);
   if (mg_) {
     // Matrix-free: the fine operator reads the cell data; the hierarchy is rebuilt.
-    mg_->update(model_.cells, w, model_.boundary.constraints.rows);
+    // The one boundary between the multigrid's PETSc error codes and exceptions; a
+    // singular point-block diagonal is a solver failure (exit 3).
+    const PetscErrorCode ierr = mg_->update(model_.cells, w, model_.boundary.constraints.rows);
+    if (ierr == PETSC_ERR_MAT_LU_ZRPVT)
+      throw SolverError("the multigrid's set-up failed: a singular 3x3 diagonal block");
+    check_petsc(ierr, "Multigrid::update");
     check_petsc(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()),
                 "KSPSetOperators");
   } else {
@@ -97,60 +105,58 @@ void Simulation::refresh_rotations(Vec u) {
   assembly::update_rotations(model_.layout, ul.data(), model_.cells);
 }
 
-void Simulation::run_static(State& s, const Observer& obs) {
+void Simulation::static_step(State& s, const OnSolve& on_solve) {
   const auto& an = deck_.analysis;
   const int n = an.load_steps;
   const assembly::OperatorWeights w{1.0, 0.0, true};
   const double t_eval = 1.0;  // time functions at the end of the load
   ScratchVec b(model_.dm), u_new(model_.dm);
-  assembly::set_identity_rotations(model_.cells);
-  for (int step = int(s.step) + 1; step <= n; ++step) {
-    const double lf = double(step) / n;
-    bool converged = false;
-    double change = 0.0;
-    const int max_iter = corotational() ? an.max_iterations : 1;
-    for (int k = 0; k < max_iter && !converged; ++k) {
-      if (corotational()) refresh_rotations(s.u);
-      if (corotational() || !assembled_) assemble(w);
-      check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary,
-                                           t_eval, lf, b),
-                  "assemble_loads");
-      if (corotational())
-        check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, b),
-                    "add_corotational_rhs");
-      check_petsc(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w,
-                                          model_.boundary.constraints, t_eval, lf, b),
-                  "constrain_rhs");
-      check_petsc(VecCopy(s.u, u_new), "VecCopy");
-      solve::SolveRecord rec;
-      {
-        EventScope scope(events().solve);
-        rec = solve::solve(ksp_, b, u_new);
-      }
-      s.time = lf;
-      s.step = step;
-      if (obs.on_solve) obs.on_solve(s, rec);
-      if (corotational()) {
-        // Fixed-point convergence test on the displacement update.
-        PetscReal du = 0, un = 0;
-        check_petsc(VecAXPY(s.u, -1.0, u_new), "VecAXPY");
-        check_petsc(VecNorm(s.u, NORM_2, &du), "VecNorm");
-        check_petsc(VecNorm(u_new, NORM_2, &un), "VecNorm");
-        change = un > 0 ? du / un : du;
-        converged = change <= an.tolerance;
-      } else {
-        converged = true;
-      }
-      check_petsc(VecCopy(u_new, s.u), "VecCopy");
+  if (!corotational()) assembly::set_identity_rotations(model_.cells);
+  const int step = int(s.step) + 1;
+  const double lf = double(step) / n;
+  bool converged = false;
+  double change = 0.0;
+  const int max_iter = corotational() ? an.max_iterations : 1;
+  for (int k = 0; k < max_iter && !converged; ++k) {
+    if (corotational()) refresh_rotations(s.u);
+    if (corotational() || !assembled_) assemble(w);
+    check_petsc(assembly::assemble_loads(model_.dm, model_.layout, model_.cells, model_.boundary,
+                                         t_eval, lf, b),
+                "assemble_loads");
+    if (corotational())
+      check_petsc(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, b),
+                  "add_corotational_rhs");
+    check_petsc(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w,
+                                        model_.boundary.constraints, t_eval, lf, b),
+                "constrain_rhs");
+    check_petsc(VecCopy(s.u, u_new), "VecCopy");
+    solve::SolveRecord rec;
+    {
+      EventScope scope(events().solve);
+      rec = solve::solve(ksp_, b, u_new);
     }
-    if (!converged)
-      throw SolverError("corotational fixed-point iteration did not converge in load step " +
-                        std::to_string(step) + " of " + std::to_string(n) + ": relative update " +
-                        std::to_string(change) + " > tolerance " + std::to_string(an.tolerance) +
-                        " after " + std::to_string(an.max_iterations) +
-                        " iterations (try more analysis.load_steps)");
-    if (obs.on_step) obs.on_step(s);
+    s.time = lf;
+    s.step = step;
+    if (on_solve) on_solve(s, rec);
+    if (corotational()) {
+      // Fixed-point convergence test on the displacement update.
+      PetscReal du = 0, un = 0;
+      check_petsc(VecAXPY(s.u, -1.0, u_new), "VecAXPY");
+      check_petsc(VecNorm(s.u, NORM_2, &du), "VecNorm");
+      check_petsc(VecNorm(u_new, NORM_2, &un), "VecNorm");
+      change = un > 0 ? du / un : du;
+      converged = change <= an.tolerance;
+    } else {
+      converged = true;
+    }
+    check_petsc(VecCopy(u_new, s.u), "VecCopy");
   }
+  if (!converged)
+    throw SolverError("corotational fixed-point iteration did not converge in load step " +
+                      std::to_string(step) + " of " + std::to_string(n) + ": relative update " +
+                      std::to_string(change) + " > tolerance " + std::to_string(an.tolerance) +
+                      " after " + std::to_string(an.max_iterations) +
+                      " iterations (try more analysis.load_steps)");
 }
 
 void Simulation::initial_acceleration(State& s) {
@@ -470,16 +476,6 @@ void Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Ve
     check_petsc(VecRestoreArrayRead(rho, &p), "VecRestoreArrayRead");
     MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_);
     e.support_work = w;
-  }
-}
-
-void Simulation::run_dynamic(State& s, const Observer& obs) {
-  EnergyMonitor monitor(deck_.analysis.energy_tolerance);
-  while (s.step < deck_.analysis.steps) {
-    const auto rec = newmark_step(s);
-    monitor.add(energy_, s.step, s.time);
-    if (obs.on_solve) obs.on_solve(s, rec);
-    if (obs.on_step) obs.on_step(s);
   }
 }
 

@@ -16,14 +16,12 @@
 
 namespace hexcut::analysis {
 
-/// Called after every solve (for solver history) and every completed step (for output
-/// and progress).
-struct Observer {
-  std::function<void(const State&, const solve::SolveRecord&)> on_solve;
-  std::function<void(const State&)> on_step;
-};
+/// Called after every linear solve (solver history, progress).
+using OnSolve = std::function<void(const State&, const solve::SolveRecord&)>;
 
-/// Owns the system matrix and the KSP of one analysis.
+/// The physics of one step on one topology: owns the system matrix (or the multigrid) and the
+/// KSP. The steps are taken by analysis::Driver (analysis/driver.hpp), which replaces the
+/// Simulation when the topology changes.
 class Simulation {
  public:
   Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck);
@@ -31,17 +29,15 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  /// Static analysis: load steps 1..n (pseudo-time s/n; time functions at t = 1, loads
-  /// and prescribed displacements scaled by s/n). Linear: one solve per load step.
+  /// Load step state.step + 1 of n of a static analysis (pseudo-time s/n; time functions at
+  /// t = 1, loads and prescribed displacements scaled by s/n). Linear: one solve.
   /// Corotational: fixed-point iteration, rotations from the last iterate, until
-  /// ||u_k+1 - u_k|| <= tolerance ||u_k+1||. Throws SolverError if it does not converge.
-  void run_static(State& state, const Observer& observer);
+  /// ||u_k+1 - u_k|| <= tolerance ||u_k+1||; on_solve after each solve. Throws SolverError
+  /// if it does not converge.
+  void static_step(State& state, const OnSolve& on_solve = {});
 
   /// Sets the initial acceleration from M a0 = f(t0) - K u0 + b^ (prescribed rows: 0).
   void initial_acceleration(State& state);
-  /// Dynamic analysis from state.step to deck.analysis.steps, with the energy check
-  /// (EnergyMonitor, analysis.energy_tolerance).
-  void run_dynamic(State& state, const Observer& observer);
   /// One time step (exposed for tests): Newmark beta = 1/4, gamma = 1/2 for linear runs
   /// and lagged rotations (one solve); for corotational runs with analysis.rotations:
   /// iterated the mid-point step (doc/theory.md "Mid-point corotational step"), which

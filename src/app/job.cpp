@@ -5,12 +5,11 @@
 
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <limits>
 #include <set>
 #include <sstream>
 
 #include "analysis/cutting.hpp"
+#include "analysis/driver.hpp"
 #include "analysis/events.hpp"
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
@@ -64,7 +63,7 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
 }
 
 /// hexcut's options and the names of the options the user set (command line and the
-/// deck's petsc_options), read before hexcut adds its solver defaults.
+/// deck's petsc_options).
 struct OptionSetup {
   HexcutOptions hexcut;
   std::set<std::string> user_options;
@@ -75,7 +74,6 @@ OptionSetup setup_options(const deck::Deck& deck) {
   check_petsc(solve::insert_deck_options(deck.solver), "insert_deck_options");
   o.user_options = options_in_database();
   o.hexcut = read_hexcut_options();
-  check_petsc(solve::set_default_options(deck.solver), "set_default_options");
   return o;
 }
 
@@ -152,17 +150,6 @@ void require_same_physics(MPI_Comm comm, const deck::Deck& deck, const analysis:
                    list);
 }
 
-/// Static analyses: every cut acts on the undeformed body before the solve, and every
-/// piece must then be held by the supports (analysis::require_rigid_support).
-void prepare_static(MPI_Comm comm, const deck::Deck& deck, analysis::Cutter& cutter,
-                    analysis::Model* model, analysis::State* state,
-                    const std::function<void()>& follow_topology) {
-  const auto r = analysis::apply_due_cuts(
-      comm, deck, cutter, std::numeric_limits<double>::infinity(), model, state, follow_topology);
-  print_cut_report(comm, *model, r, 0.0);
-  analysis::require_supported(analysis::find_pieces(comm, *model));
-}
-
 }  // namespace
 
 deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
@@ -197,17 +184,20 @@ void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
               int(model.boundary.constraints.global_count));
   an::State state;
   check_petsc(an::create_state(model.dm, &state), "create_state");
-  if (deck.analysis.type == deck::Analysis::Type::static_) {
-    an::Cutter cutter(deck, model.lattice);
-    prepare_static(comm, deck, cutter, &model, &state, [] {});
-  } else if (!deck.cuts.empty()) {
-    PetscPrintf(comm,
-                "%s: %d cut(s) act during the run (not checked here: they depend on "
-                "the motion)\n",
-                deck.path.c_str(), int(deck.cuts.size()));
+  {
+    // The solver as the run creates it (PETSc parses the options here), and the static
+    // cuts with the pieces they leave.
+    std::unique_ptr<an::Simulation> sim;
+    an::DriverHooks hooks;
+    hooks.on_cuts = [&](const an::CutReport& r, double t) { print_cut_report(comm, model, r, t); };
+    an::Driver driver(comm, deck, model, state, sim, hooks);
+    if (driver.dynamic() && !deck.cuts.empty())
+      PetscPrintf(comm,
+                  "%s: %d cut(s) act during the run (not checked here: they depend on "
+                  "the motion)\n",
+                  deck.path.c_str(), int(deck.cuts.size()));
+    driver.prepare();
   }
-  // The solver as the run creates it: PETSc parses the options here.
-  { an::Simulation sim(comm, model, deck); }
   PetscPrintf(comm, "%s: deck is valid\n", deck.path.c_str());
   check_petsc(an::destroy_state(&state), "destroy_state");
   check_petsc(an::destroy_model(&model), "destroy_model");
@@ -239,10 +229,35 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     PetscPrintf(comm, "hexcut: writing %s; it replaces %s when the run ends\n",
                 paths.write_path.c_str(), paths.final_path.c_str());
 
-  const bool dynamic = deck.analysis.type == deck::Analysis::Type::dynamic;
   an::State state;
   check_petsc(an::create_state(model.dm, &state), "create_state");
-  auto sim = std::make_unique<an::Simulation>(comm, model, deck);
+  std::unique_ptr<an::Simulation> sim;
+  std::int64_t last_its = 0;
+  double last_res = 0;
+  std::int64_t first_step = 0;
+  PetscLogDouble t_loop = 0;
+  an::DriverHooks hooks;
+  hooks.on_cuts = [&](const an::CutReport& r, double t) { print_cut_report(comm, model, r, t); };
+  hooks.on_solve = [&](const an::State&, const solve::SolveRecord& r) {
+    last_its = r.iterations;
+    last_res = r.residual;
+  };
+  // The driver is created below; the progress line reads its energy monitor.
+  std::unique_ptr<an::Driver> driver;
+  hooks.on_step = [&](const an::State& s) {
+    PetscLogDouble now;
+    PetscTime(&now);
+    const double wall = now - t_loop;
+    const double per_step = wall / double(s.step - first_step);
+    const auto total = driver->total_steps();
+    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  %swall %s  eta %s\n",
+                (long long)s.step, (long long)total, s.time, (long long)last_its, last_res,
+                driver->dynamic() ? (driver->energy().summary() + "  ").c_str() : "",
+                format_seconds(wall).c_str(),
+                format_seconds(per_step * double(total - s.step)).c_str());
+  };
+  // Cuts (doc/theory.md, "Cutting"), steps, output and checkpoints: analysis::Driver.
+  driver = std::make_unique<an::Driver>(comm, deck, model, state, sim, hooks);
   {
     KSPType ksp_type;
     PCType pc_type;
@@ -254,106 +269,32 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
   }
-  // Cuts (doc/theory.md, "Cutting"). Static analyses apply every cut to the undeformed body before
-  // solving; dynamic ones apply each when its time comes, in the deformed configuration.
-  an::Cutter cutter(deck, model.lattice);
-  std::unique_ptr<an::ResultOutput> out;
-  // After the topology changed: a solver (and multigrid hierarchy) for the new DM, and
-  // output tables for the new vertex copies.
-  auto follow_topology = [&] {
-    sim.reset();
-    sim = std::make_unique<an::Simulation>(comm, model, deck);
-    if (out) out->topology_changed();
-  };
-  auto apply_cuts = [&](double t) {
-    const auto r = an::apply_due_cuts(comm, deck, cutter, t, &model, &state, follow_topology);
-    print_cut_report(comm, model, r, t);
-  };
   // A static body its supports do not hold stops here, before the result file exists.
-  if (!restart && !dynamic) prepare_static(comm, deck, cutter, &model, &state, follow_topology);
+  if (!restart) driver->prepare();
   // The result file: created (mesh and input written) or, on restart, re-opened.
-  out = std::make_unique<an::ResultOutput>(comm, model, deck, paths.write_path, job.command_line,
-                                           restart);
-  if (!restart && dynamic) apply_cuts(0.0);
-
-  const std::int64_t total = dynamic ? deck.analysis.steps : deck.analysis.load_steps;
+  std::unique_ptr<an::ResultOutput> out = std::make_unique<an::ResultOutput>(
+      comm, model, deck, paths.write_path, job.command_line, restart);
+  driver->set_output(out.get());
   if (restart) {
     // A run that was cut: rebuild the cut topology from the checkpoint's links first.
     const auto links = out->checkpoint_cut_links();
-    if (!links.empty()) {
-      check_petsc(an::destroy_state(&state), "destroy_state");
-      check_petsc(an::restore_cuts(comm, deck, links, &model), "restore_cuts");
-      check_petsc(an::create_state(model.dm, &state), "create_state");
-      follow_topology();
-    }
+    driver->restore_cuts(links);
     out->read_checkpoint(&state);
-    cutter.skip_due(state.time);
-    if (!dynamic) an::require_supported(an::find_pieces(comm, model));
+    driver->resume();
     PetscPrintf(
         comm, "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
         paths.final_path.c_str(), (long long)state.step, state.time, (long long)links.size());
-  } else if (dynamic) {
-    sim->initial_acceleration(state);
-    PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-    out->write_step(state, sim->corotational());
-    PetscLogEventEnd(ev.output, 0, 0, 0, 0);
+  } else {
+    driver->begin();
   }
-  const std::int64_t first_step = state.step;
-
-  PetscLogDouble t_loop;
+  first_step = state.step;
   PetscTime(&t_loop);
-  an::Observer obs;
-  std::int64_t last_its = 0;
-  double last_res = 0;
-  obs.on_solve = [&](const an::State& s, const solve::SolveRecord& r) {
-    last_its = r.iterations;
-    last_res = r.residual;
-    out->record_solve(s.step, s.time, r);
-  };
-  bool stopped_early = false;
-  an::EnergyMonitor energy(deck.analysis.energy_tolerance);  // dynamics (doc/theory.md)
-  obs.on_step = [&](const an::State& s) {
-    PetscLogDouble now;
-    PetscTime(&now);
-    const double wall = now - t_loop;
-    const double per_step = wall / double(s.step - first_step);
-    PetscPrintf(comm, "step %lld/%lld  t = %.6g s  its %lld  res %.2e  %swall %s  eta %s\n",
-                (long long)s.step, (long long)total, s.time, (long long)last_its, last_res,
-                dynamic ? (energy.summary() + "  ").c_str() : "", format_seconds(wall).c_str(),
-                format_seconds(per_step * double(total - s.step)).c_str());
-    const bool last = s.step == total;
-    const bool stop = max_steps > 0 && s.step - first_step >= max_steps && !last;
-    if (last || stop || s.step % deck.output.every == 0) {
-      PetscLogEventBegin(ev.output, 0, 0, 0, 0);
-      out->write_step(s, sim->corotational());
-      PetscLogEventEnd(ev.output, 0, 0, 0, 0);
-    }
-    const int ce = deck.output.checkpoint_every;
-    if (last || stop || (ce > 0 && s.step % ce == 0)) out->write_checkpoint(s);
-    if (stop) {
-      stopped_early = true;
-      throw std::logic_error("stop");  // unwinds the analysis loop; caught below
-    }
-  };
   try {
-    if (dynamic) {
-      while (state.step < total) {
-        // Cuts due by the end of this step act on the configuration at its start; then
-        // the operator, preconditioner and output tables follow the new topology.
-        if (cutter.pending()) apply_cuts(double(state.step + 1) * deck.analysis.dt);
-        const auto rec = sim->newmark_step(state);
-        energy.add(sim->last_step_energy(), state.step, state.time);  // exit 3 if created
-        obs.on_solve(state, rec);
-        obs.on_step(state);
-      }
-    } else {
-      sim->run_static(state, obs);
-    }
-  } catch (const std::logic_error&) {
-    if (!stopped_early) throw;
-    PetscPrintf(
-        comm, "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
-        (long long)max_steps, paths.final_path.c_str());
+    if (!driver->run(max_steps))
+      PetscPrintf(
+          comm,
+          "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
+          (long long)max_steps, paths.final_path.c_str());
   } catch (const SolverError&) {
     // What was written stays: the earlier result, when this run was to replace it, is
     // untouched, and this run's steps are in its own file.
@@ -364,6 +305,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                    paths.final_path.c_str(), paths.write_path.c_str());
     throw;
   }
+  driver.reset();
   out.reset();
   sim.reset();
   commit_result(comm, paths);

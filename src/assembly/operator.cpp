@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 
+#include "assembly/fine_cells.hpp"
 #include "element/element.hpp"
 
 namespace hexcut::assembly {
@@ -161,29 +162,7 @@ PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& V,
 
 PetscErrorCode assemble_matrix(const topology::DofLayout& D, const CellData& C,
                                const OperatorWeights& w, Mat A) {
-  PetscFunctionBeginUser;
-  PetscCall(MatZeroEntries(A));
-  double Ae[element::kElementMatrixSize];
-  PetscInt idx[8];
-  for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    cell_operator(C, e, w, Ae);
-    for (int q = 0; q < 8; ++q) idx[q] = D.global_block[D.copies[D.cell_corners[e][q]]];
-    PetscCall(MatSetValuesBlocked(A, 8, idx, 8, idx, Ae, ADD_VALUES));
-  }
-  PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
-  PetscFunctionReturn(0);
-}
-
-void apply_local(const topology::DofLayout& D, const CellData& C, const OperatorWeights& w,
-                 const double* x, double* y) {
-  double buffer[element::kElementMatrixSize], xe[24], ye[24];
-  for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    element::gather_cell(x, D.cell_corners[e].data(), xe);
-    std::fill(ye, ye + 24, 0.0);
-    element::fine_cell_apply_add(fine_cell_view(C, e, w, buffer), xe, ye);
-    element::scatter_add_cell(ye, D.cell_corners[e].data(), y);
-  }
+  return assemble(FineCells(D, C, w), nullptr, A);
 }
 
 PetscErrorCode global_to_local(DM dm, Vec global, Vec local) {
@@ -195,25 +174,7 @@ PetscErrorCode global_to_local(DM dm, Vec global, Vec local) {
 
 PetscErrorCode apply(DM dm, const topology::DofLayout& D, const CellData& C,
                      const OperatorWeights& w, Vec x, Vec y) {
-  PetscFunctionBeginUser;
-  Vec xl, yl;
-  PetscCall(DMGetLocalVector(dm, &xl));
-  PetscCall(DMGetLocalVector(dm, &yl));
-  PetscCall(global_to_local(dm, x, xl));
-  PetscCall(VecSet(yl, 0.0));
-  const PetscScalar* xa;
-  PetscScalar* ya;
-  PetscCall(VecGetArrayRead(xl, &xa));
-  PetscCall(VecGetArray(yl, &ya));
-  apply_local(D, C, w, xa, ya);
-  PetscCall(VecRestoreArrayRead(xl, &xa));
-  PetscCall(VecRestoreArray(yl, &ya));
-  PetscCall(VecSet(y, 0.0));
-  PetscCall(DMLocalToGlobalBegin(dm, yl, ADD_VALUES, y));
-  PetscCall(DMLocalToGlobalEnd(dm, yl, ADD_VALUES, y));
-  PetscCall(DMRestoreLocalVector(dm, &xl));
-  PetscCall(DMRestoreLocalVector(dm, &yl));
-  PetscFunctionReturn(0);
+  return apply(dm, FineCells(D, C, w), x, y);
 }
 
 PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& D, const CellData& C,

@@ -73,15 +73,12 @@ double strain_energy_local(const topology::DofLayout& layout, const CellData& ce
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& copies,
                              const topology::DofLayout& layout, Mat* A);
 
-/// Zeroes A and assembles w_K K^ + w_M M into it.
+/// Zeroes A and assembles w_K K^ + w_M M into it: assemble(FineCells(layout, cells, w)).
 PetscErrorCode assemble_matrix(const topology::DofLayout& layout, const CellData& cells,
                                const OperatorWeights& w, Mat A);
 
-/// y_local += A_local x_local, element by element over the rank's cells.
-void apply_local(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
-                 const double* x_local, double* y_local);
-
-/// y = A x on global vectors (ghost exchange through the DM); y is overwritten.
+/// y = A x on global vectors (ghost exchange through the DM); y is overwritten:
+/// apply(dm, FineCells(layout, cells, w), x, y).
 PetscErrorCode apply(DM dm, const topology::DofLayout& layout, const CellData& cells,
                      const OperatorWeights& w, Vec x, Vec y);
 

@@ -6,6 +6,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "common/errors.hpp"
 
@@ -27,6 +28,33 @@ inline PetscErrorCode set_option_if_unset(const char* name, const char* value) {
   if (!set) PetscCall(PetscOptionsSetValue(nullptr, name, value));
   PetscFunctionReturn(0);
 }
+
+/// Options-database defaults for one object's set-up (e.g. BoomerAMG settings that have no
+/// setter function): add() inserts an option only where the user did not set it, and the
+/// destructor removes what it inserted, so the defaults reach what reads the database
+/// within the scope (one KSPSetFromOptions) and never a later solver.
+class ScopedOptionDefaults {
+ public:
+  ScopedOptionDefaults() = default;
+  ScopedOptionDefaults(const ScopedOptionDefaults&) = delete;
+  ScopedOptionDefaults& operator=(const ScopedOptionDefaults&) = delete;
+  ~ScopedOptionDefaults() {
+    for (const auto& name : inserted_) PetscOptionsClearValue(nullptr, name.c_str());
+  }
+  PetscErrorCode add(const char* name, const char* value) {
+    PetscFunctionBeginUser;
+    PetscBool set = PETSC_FALSE;
+    PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
+    if (!set) {
+      PetscCall(PetscOptionsSetValue(nullptr, name, value));
+      inserted_.emplace_back(name);
+    }
+    PetscFunctionReturn(0);
+  }
+
+ private:
+  std::vector<std::string> inserted_;
+};
 
 /// Runs `call`, a step that reads the user's PETSc options (solver types, numbers): an
 /// error there is a mistake in the input, so it becomes an InputError carrying PETSc's own

@@ -30,4 +30,17 @@ HEXCUT_HD inline double child_weight(int octant, int i, int j) {
   return trilinear_weight(xi, j);
 }
 
+/// Parity colour (0..7) of corner q of a cell at level position p: the colour of the
+/// lattice vertex p + offset(q). The 8 corners of a cell have 8 different colours.
+HEXCUT_HD inline int corner_colour(const int* p, int q) {
+  return ((p[0] + (q & 1)) & 1) + 2 * ((p[1] + ((q >> 1) & 1)) & 1) +
+         4 * ((p[2] + ((q >> 2) & 1)) & 1);
+}
+
+/// The corner of a cell at position p that has colour k.
+HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
+  return ((k & 1) ^ (p[0] & 1)) + 2 * (((k >> 1) & 1) ^ (p[1] & 1)) +
+         4 * (((k >> 2) & 1) ^ (p[2] & 1));
+}
+
 }  // namespace hexcut::element

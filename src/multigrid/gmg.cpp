@@ -9,6 +9,7 @@
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
+#include "assembly/fine_cells.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -19,19 +20,16 @@ struct Multigrid::LevelData {
   Vec b = nullptr, x = nullptr, r = nullptr, tmp = nullptr;  // global
   Vec dir = nullptr;                                         // global: Chebyshev direction
   Vec xl = nullptr, yl = nullptr;                            // local
-  Vec mask = nullptr;                                        // global: 1 free, 0 prescribed or dead
-  std::vector<double> mask_local;                            // per local DOF
-  std::vector<double> cell_matrix;                           // packed 300 per local cell (l >= 1)
-  std::vector<std::int32_t> child_offset, children;          // l >= 1: local children per cell
-  std::vector<double> diag_inv;                              // 9 per owned copy
-  std::vector<int> colour;                                   // per owned copy
-  std::vector<std::int32_t> colour_list[8];                  // owned copies of each colour
-  std::vector<char> cell_masked;                             // level 0: cell has a prescribed DOF
-  std::vector<char> dirty;                                   // per local cell: rebuilt by update()
-  std::vector<FineCell> fine;                                // level 0: kernel view of each cell
-  std::vector<std::array<double, 576>> own_stiffness;        // level 0: K of cells without a kind
-  std::vector<std::array<int, 3>> cell_pos;                  // per local cell
-  std::vector<std::int32_t> local_cell;                      // canonical cell -> local index, -1
+  Vec mask = nullptr;                   // global: 1 free, 0 prescribed or dead
+  const assembly::CellOperator* op = nullptr;  // level 0: fine_op_; else *stored
+  std::unique_ptr<StoredCells> stored;         // l >= 1: Galerkin blocks
+  Children children;                           // l >= 1: local children per cell
+  std::vector<double> diag_inv;                // 9 per owned copy
+  std::vector<int> colour;                     // per owned copy
+  std::vector<std::int32_t> colour_list[8];    // owned copies of each colour
+  std::vector<char> dirty;                     // level 0: per local cell, rebuilt by update()
+  assembly::CellPositions cell_pos;            // per local cell
+  std::vector<std::int32_t> local_cell;        // canonical cell -> local index, -1
   Mat P = nullptr;  // interpolation from level l+1 (3 DOFs per copy)
   double lambda_max = 0.0;
 };
@@ -46,108 +44,21 @@ PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode pc_apply(PC pc, Vec b, Vec x) {
-  PetscFunctionBeginUser;
-  Multigrid* mg;
-  PetscCall(PCShellGetContext(pc, &mg));
-  PetscCall(mg->vcycle(b, x));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode pc_view(PC pc, PetscViewer viewer) {
-  PetscFunctionBeginUser;
-  Multigrid* mg;
-  PetscCall(PCShellGetContext(pc, &mg));
-  PetscCall(mg->view(viewer));
-  PetscFunctionReturn(0);
-}
-
 }  // namespace
 
-/// The mask of the local copies (owned + ghosts) from the global mask.
-void Multigrid::refresh_local_mask(LevelData& d) {
-  check_petsc(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
-  check_petsc(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl), "g2l");
+/// The level-0 mask of the local copies (owned + ghosts) from the global mask.
+PetscErrorCode Multigrid::local_mask(std::vector<double>* m) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[0];
+  PetscCall(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl));
+  PetscCall(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl));
   const PetscScalar* ml;
   PetscInt n;
-  check_petsc(VecGetLocalSize(d.xl, &n), "size");
-  check_petsc(VecGetArrayRead(d.xl, &ml), "array");
-  d.mask_local.assign(ml, ml + n);
-  check_petsc(VecRestoreArrayRead(d.xl, &ml), "array");
-}
-
-Options read_options() {
-  Options o;
-  PetscInt n;
-  PetscBool set;
-  char buf[64];
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_levels", &n, &set), "options");
-  if (set) {
-    if (n < 1) throw InputError("-gmg_levels must be >= 1");
-    o.hierarchy.levels = int(n);
-  }
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_coarse_dofs", &n, &set), "options");
-  if (set) {
-    if (n < 3) throw InputError("-gmg_coarse_dofs must be >= 3");
-    o.hierarchy.coarse_dofs = n;
-  }
-  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_hierarchy", buf, sizeof buf, &set),
-              "options");
-  if (set) {
-    if (!std::strcmp(buf, "naive"))
-      o.hierarchy.mode = hierarchy::Coarsening::naive;
-    else if (!std::strcmp(buf, "components"))
-      o.hierarchy.mode = hierarchy::Coarsening::components;
-    else
-      throw InputError(std::string("-gmg_hierarchy must be components or naive, got ") + buf);
-  }
-  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_smoother", buf, sizeof buf, &set),
-              "options");
-  if (set) {
-    if (!std::strcmp(buf, "gs"))
-      o.smoother = Smoother::gauss_seidel;
-    else if (!std::strcmp(buf, "chebyshev"))
-      o.smoother = Smoother::chebyshev;
-    else
-      throw InputError(std::string("-gmg_smoother must be gs or chebyshev, got ") + buf);
-  }
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_presmooth", &n, &set), "options");
-  if (set) o.presmooth = int(n);
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_postsmooth", &n, &set), "options");
-  if (set) o.postsmooth = int(n);
-  if (o.presmooth < 0 || o.postsmooth < 0 || o.presmooth + o.postsmooth == 0)
-    throw InputError("-gmg_presmooth and -gmg_postsmooth must be >= 0 and not both 0");
-  PetscReal w;
-  check_petsc(PetscOptionsGetReal(nullptr, nullptr, "-gmg_omega", &w, &set), "options");
-  if (set) {
-    if (!(w > 0 && w < 2)) throw InputError("-gmg_omega must be in (0, 2)");
-    o.omega = w;
-  }
-  check_petsc(PetscOptionsGetReal(nullptr, nullptr, "-gmg_rebuild_tol", &w, &set), "options");
-  if (set) {
-    if (!(w >= 0)) throw InputError("-gmg_rebuild_tol must be >= 0");
-    o.rebuild_tolerance = w;
-  }
-  check_petsc(PetscOptionsGetInt(nullptr, nullptr, "-gmg_eig_every", &n, &set), "options");
-  if (set) {
-    if (n < 1) throw InputError("-gmg_eig_every must be >= 1");
-    o.eig_every = int(n);
-  }
-  check_petsc(PetscOptionsGetString(nullptr, nullptr, "-gmg_cycle", buf, sizeof buf, &set),
-              "options");
-  o.cycle_set = set;
-  if (set) {
-    if (!std::strcmp(buf, "v"))
-      o.cycle_gamma = 1;
-    else if (!std::strcmp(buf, "w"))
-      o.cycle_gamma = 2;
-    else
-      throw InputError(std::string("-gmg_cycle must be v or w, got ") + buf);
-  }
-  PetscBool view = PETSC_FALSE;
-  check_petsc(PetscOptionsGetBool(nullptr, nullptr, "-gmg_view", &view, nullptr), "options");
-  o.view = view;
-  return o;
+  PetscCall(VecGetLocalSize(d.xl, &n));
+  PetscCall(VecGetArrayRead(d.xl, &ml));
+  m->assign(ml, ml + n);
+  PetscCall(VecRestoreArrayRead(d.xl, &ml));
+  PetscFunctionReturn(0);
 }
 
 Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
@@ -161,18 +72,27 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
     std::array<PetscLogEvent, 3> e{};
     check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
     check_petsc(PetscLogEventRegister("gmgSetup", id, &e[0]), "event");
-    check_petsc(PetscLogEventRegister("gmgVcycle", id, &e[1]), "event");
+    check_petsc(PetscLogEventRegister("gmgCycle", id, &e[1]), "event");
     check_petsc(PetscLogEventRegister("gmgSmooth", id, &e[2]), "event");
     return e;
   }();
   ev_setup_ = events[0];
   ev_apply_ = events[1];
   ev_smooth_ = events[2];
+  check_petsc(build(lattice, copies, partition, layout, fine_dm), "gmg: building the hierarchy");
+}
+
+PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
+                                const topology::VertexCopies& copies,
+                                const topology::Partition& partition,
+                                const topology::DofLayout& layout, DM fine_dm) {
+  PetscFunctionBeginUser;
+  MPI_Comm comm = comm_;
   // Hierarchy construction counts as multigrid set-up (with update()'s operator build).
-  PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
+  PetscCall(PetscLogEventBegin(ev_setup_, 0, 0, 0, 0));
   const int rank = layout.rank;
   levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition,
-                                       layout, options.hierarchy);
+                                       layout, opt_.hierarchy);
   const int L = int(levels_.size());
   for (int l = 0; l < L; ++l) {
     auto d = std::make_unique<LevelData>();
@@ -180,17 +100,17 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
     if (l == 0) {
       d->dm = fine_dm;
     } else {
-      check_petsc(topology::create_dm(comm, lev.layout, &d->dm), "create_dm");
+      PetscCall(topology::create_dm(comm, lev.layout, &d->dm));
       d->own_dm = true;
     }
-    check_petsc(DMCreateGlobalVector(d->dm, &d->b), "vec");
-    check_petsc(VecDuplicate(d->b, &d->x), "vec");
-    check_petsc(VecDuplicate(d->b, &d->r), "vec");
-    check_petsc(VecDuplicate(d->b, &d->tmp), "vec");
-    check_petsc(VecDuplicate(d->b, &d->dir), "vec");
-    check_petsc(VecDuplicate(d->b, &d->mask), "vec");
-    check_petsc(DMCreateLocalVector(d->dm, &d->xl), "vec");
-    check_petsc(VecDuplicate(d->xl, &d->yl), "vec");
+    PetscCall(DMCreateGlobalVector(d->dm, &d->b));
+    PetscCall(VecDuplicate(d->b, &d->x));
+    PetscCall(VecDuplicate(d->b, &d->r));
+    PetscCall(VecDuplicate(d->b, &d->tmp));
+    PetscCall(VecDuplicate(d->b, &d->dir));
+    PetscCall(VecDuplicate(d->b, &d->mask));
+    PetscCall(DMCreateLocalVector(d->dm, &d->xl));
+    PetscCall(VecDuplicate(d->xl, &d->yl));
     const auto& D = lev.layout;
     d->cell_pos.resize(D.cells.size());
     d->local_cell.assign(lev.graph.num_cells(), -1);
@@ -210,21 +130,25 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
   // Children of every local coarse cell (all on this rank: they share a super-block).
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
+    auto& ch = d.children;
     const auto& fine = levels_[l - 1];
     const std::size_t n = levels_[l].layout.cells.size();
-    d.child_offset.assign(n + 1, 0);
+    ch.offset.assign(n + 1, 0);
     std::vector<std::int32_t> parent_of(fine.layout.cells.size());
     for (std::size_t e = 0; e < fine.layout.cells.size(); ++e) {
       const auto C = d.local_cell[fine.parent[fine.layout.cells[e]]];
-      if (C < 0) throw std::logic_error("gmg: a coarse cell's children are on different ranks");
+      PetscCheck(C >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                 "gmg: a coarse cell's children are on different ranks");
       parent_of[e] = C;
-      ++d.child_offset[C + 1];
+      ++ch.offset[C + 1];
     }
-    for (std::size_t C = 0; C < n; ++C) d.child_offset[C + 1] += d.child_offset[C];
-    d.children.resize(fine.layout.cells.size());
-    std::vector<std::int32_t> next(d.child_offset.begin(), d.child_offset.end() - 1);
+    for (std::size_t C = 0; C < n; ++C) ch.offset[C + 1] += ch.offset[C];
+    ch.child.resize(fine.layout.cells.size());
+    std::vector<std::int32_t> next(ch.offset.begin(), ch.offset.end() - 1);
     for (std::size_t e = 0; e < fine.layout.cells.size(); ++e)
-      d.children[next[parent_of[e]]++] = std::int32_t(e);
+      ch.child[next[parent_of[e]]++] = std::int32_t(e);
+    d.stored = std::make_unique<StoredCells>(levels_[l].layout);
+    d.op = d.stored.get();
   }
   // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
   for (int l = 0; l + 1 < L; ++l) {
@@ -232,31 +156,28 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
     const auto& fine = levels_[l].layout;
     const auto& coarse = levels_[l + 1].layout;
     Mat P;
-    check_petsc(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE,
-                             PETSC_DETERMINE, 8, nullptr, 8, nullptr, &P),
-                "MatCreateAIJ");
+    PetscCall(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE,
+                             PETSC_DETERMINE, 8, nullptr, 8, nullptr, &P));
     for (std::size_t i = 0; i < I.fine.size(); ++i) {
       const PetscInt row = fine.global_block[I.fine[i]];
       for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j)
-        check_petsc(
-            MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES),
-            "MatSetValue");
+        PetscCall(
+            MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES));
     }
-    check_petsc(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY), "assembly");
-    check_petsc(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY), "assembly");
-    check_petsc(MatCreateMAIJ(P, 3, &data_[l]->P), "MatCreateMAIJ");
-    check_petsc(MatDestroy(&P), "MatDestroy");
+    PetscCall(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatCreateMAIJ(P, 3, &data_[l]->P));
+    PetscCall(MatDestroy(&P));
   }
   const auto& D0 = levels_[0].layout;
-  check_petsc(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
-                             PETSC_DETERMINE, this, &shell_),
-              "MatCreateShell");
-  check_petsc(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult),
-              "MatShellSetOperation");
-  check_petsc(MatSetBlockSize(shell_, 3), "MatSetBlockSize");
-  check_petsc(MatSetOption(shell_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
-  check_petsc(MatSetOption(shell_, MAT_SPD, PETSC_TRUE), "MatSetOption");
-  PetscLogEventEnd(ev_setup_, 0, 0, 0, 0);
+  PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
+                             PETSC_DETERMINE, this, &shell_));
+  PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
+  PetscCall(MatSetBlockSize(shell_, 3));
+  PetscCall(MatSetOption(shell_, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(shell_, MAT_SPD, PETSC_TRUE));
+  PetscCall(PetscLogEventEnd(ev_setup_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
 }
 
 Multigrid::~Multigrid() {
@@ -303,151 +224,105 @@ void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full
   }
 }
 
-void Multigrid::update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
-                       const std::vector<PetscInt>& constrained_rows) {
-  PetscLogEventBegin(ev_setup_, 0, 0, 0, 0);
+PetscErrorCode Multigrid::update(const assembly::CellData& cells,
+                                 const assembly::OperatorWeights& w,
+                                 const std::vector<PetscInt>& constrained_rows) {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(ev_setup_, 0, 0, 0, 0));
   const int L = num_levels();
   // Anything but rotations changed: rebuild everything (a collective decision).
   int full = !built_ || w.stiffness != weights_.stiffness || w.mass != weights_.mass ||
              w.lumped_mass != weights_.lumped_mass || constrained_rows != built_rows_ ||
              built_rotation_.size() != cells.rotation.size();
-  MPI_Allreduce(MPI_IN_PLACE, &full, 1, MPI_INT, MPI_LOR, comm_);
-  fine_cells_ = &cells;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &full, 1, MPI_INT, MPI_LOR, comm_));
   weights_ = w;
   rebuilt_.assign(L, 0);
   auto& d0 = *data_[0];
   const auto& D0 = levels_[0].layout;
+  // The fine operator's kernel views are formed once per update rather than per cell
+  // visit; it always uses the current rotations, whatever is rebuilt above it.
+  if (!fine_op_ || fine_cells_ != &cells) {
+    fine_op_ = std::make_unique<assembly::FineCells>(D0, cells, w, true);
+    fine_cells_ = &cells;
+    d0.op = fine_op_.get();
+  } else {
+    fine_op_->set_weights(w);
+  }
   if (full) {
     // Level 0 mask from the prescribed rows, then to the ghosts.
     built_rows_ = constrained_rows;
-    check_petsc(VecSet(d0.mask, 1.0), "VecSet");
+    PetscCall(VecSet(d0.mask, 1.0));
     PetscInt lo;
-    check_petsc(VecGetOwnershipRange(d0.mask, &lo, nullptr), "range");
+    PetscCall(VecGetOwnershipRange(d0.mask, &lo, nullptr));
     PetscScalar* m;
-    check_petsc(VecGetArray(d0.mask, &m), "array");
+    PetscCall(VecGetArray(d0.mask, &m));
     for (PetscInt row : constrained_rows) m[row - lo] = 0.0;
-    check_petsc(VecRestoreArray(d0.mask, &m), "array");
-    refresh_local_mask(d0);
-    d0.cell_masked.assign(D0.cells.size(), 0);
-    for (std::size_t e = 0; e < D0.cells.size(); ++e)
-      for (auto v : D0.cell_corners[e])
-        for (int c = 0; c < 3; ++c)
-          if (d0.mask_local[3 * v + c] == 0.0) d0.cell_masked[e] = 1;
+    PetscCall(VecRestoreArray(d0.mask, &m));
+    std::vector<double> mask;
+    PetscCall(local_mask(&mask));
+    fine_op_->set_mask(std::move(mask));
   }
   mark_dirty_fine_cells(cells, full);
-  // Kernel views of the fine cells, built once per update rather than per cell visit.
-  // The fine operator always uses the current rotations, whatever is rebuilt above it.
-  d0.fine.resize(D0.cells.size());
-  d0.own_stiffness.clear();
-  std::size_t own = 0;
-  for (std::size_t e = 0; e < D0.cells.size(); ++e) own += cells.kind[e] < 0;
-  d0.own_stiffness.resize(own);
-  own = 0;
-  for (std::size_t e = 0; e < D0.cells.size(); ++e) {
-    double* buffer = cells.kind[e] < 0 ? d0.own_stiffness[own++].data() : nullptr;
-    d0.fine[e] = assembly::fine_cell_view(cells, e, w, buffer);
-  }
-  build_diagonal(0);
+  PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
-  // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child: each
-  // is accumulated in full 24x24 form from its (at most 8) children, then stored packed.
+  // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child.
   if (built_rotation_.size() != cells.rotation.size())
     built_rotation_.assign(cells.rotation.size(), 0.0);
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
     const auto& fd = *data_[l - 1];
-    const std::size_t n = levels_[l].layout.cells.size();
-    if (d.cell_matrix.size() != kPackedSize * n) d.cell_matrix.assign(kPackedSize * n, 0.0);
-    d.dirty.assign(n, 0);
-    double child[576], parent[576];
-    for (std::size_t C = 0; C < n; ++C) {
-      for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k)
-        if (fd.dirty[d.children[k]]) d.dirty[C] = 1;
-      if (!d.dirty[C]) continue;
-      ++rebuilt_[l];
-      std::fill(parent, parent + 576, 0.0);
-      for (auto k = d.child_offset[C]; k < d.child_offset[C + 1]; ++k) {
-        const auto e = std::size_t(d.children[k]);
-        if (l - 1 == 0) {
-          masked_fine_operator(e, child);
-          std::copy_n(&cells.rotation[9 * e], 9, &built_rotation_[9 * e]);
-        } else {
-          unpack_symmetric(&fd.cell_matrix[kPackedSize * e], child);
-        }
-        const auto& p = fd.cell_pos[e];
-        galerkin_accumulate(child, element::parity_octant(p[0], p[1], p[2]), parent);
-      }
-      pack_symmetric(parent, &d.cell_matrix[kPackedSize * C]);
+    rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
+                                     l == 1 ? d0.dirty : fd.stored->dirty());
+    if (l == 1) {
+      // The rotations the rebuilt blocks saw: those of all their children.
+      const auto& dirty = d.stored->dirty();
+      for (std::size_t C = 0; C < dirty.size(); ++C)
+        if (dirty[C])
+          for (auto k = d.children.offset[C]; k < d.children.offset[C + 1]; ++k) {
+            const auto e = std::size_t(d.children.child[k]);
+            std::copy_n(&cells.rotation[9 * e], 9, &built_rotation_[9 * e]);
+          }
     }
     // The diagonal blocks sum over ranks: rebuilt wherever any rank changed this level.
     int changed = rebuilt_[l] > 0;
-    MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
-    if (changed) build_diagonal(l);
-    if (l == L - 1 && changed) build_coarsest();
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_));
+    if (changed) PetscCall(build_diagonal(l));
+    if (l == L - 1 && changed) PetscCall(build_coarsest());
   }
-  if (L == 1) build_coarsest();
+  if (L == 1) PetscCall(build_coarsest());
   if (opt_.smoother == Smoother::chebyshev) {
     if (full || ++updates_since_estimate_ >= opt_.eig_every) {
-      for (int l = 0; l + 1 < L; ++l) estimate_lambda_max(l);
+      for (int l = 0; l + 1 < L; ++l) PetscCall(estimate_lambda_max(l));
       updates_since_estimate_ = 0;
     }
   }
   built_ = true;
-  PetscLogEventEnd(ev_setup_, 0, 0, 0, 0);
-  if (opt_.view) check_petsc(view(PETSC_VIEWER_STDOUT_(comm_)), "view");
+  PetscCall(PetscLogEventEnd(ev_setup_, 0, 0, 0, 0));
+  if (opt_.view) PetscCall(view(PETSC_VIEWER_STDOUT_(comm_)));
+  PetscFunctionReturn(0);
 }
 
-void Multigrid::masked_fine_operator(std::size_t e, double* A) const {
-  // The fine cell's 24x24 operator with the rows and columns of prescribed DOFs zeroed:
-  // the constrained operator the coarse levels are built from.
-  assembly::cell_operator(*fine_cells_, e, weights_, A);
-  double m[24];
-  element::gather_cell(data_[0]->mask_local.data(), levels_[0].layout.cell_corners[e].data(), m);
-  for (int r = 0; r < 24; ++r)
-    for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
-}
-
-void Multigrid::build_diagonal(int l) {
+PetscErrorCode Multigrid::build_diagonal(int l) {
+  PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& D = levels_[l].layout;
   // 3x3 diagonal blocks, 9 numbers per copy, summed over ranks through a temporary
   // ghost exchange (kept only during set-up: it would be the largest array per DOF).
   Vec diag_g, diag_l;
   VecScatter diag_scatter;
-  check_petsc(topology::create_ghost_scatter(comm_, D, 9, &diag_g, &diag_l, &diag_scatter),
-              "ghost scatter");
-  check_petsc(VecSet(diag_l, 0.0), "VecSet");
+  PetscCall(topology::create_ghost_scatter(comm_, D, 9, &diag_g, &diag_l, &diag_scatter));
+  PetscCall(VecSet(diag_l, 0.0));
   PetscScalar* dl;
-  check_petsc(VecGetArray(diag_l, &dl), "array");
-  double A[576], block[9];
-  for (std::size_t e = 0; e < D.cells.size(); ++e) {
-    // Level 0: only the 3x3 diagonal blocks of the fine operator, not the 24x24 matrix.
-    if (l > 0) unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
-    for (int q = 0; q < 8; ++q) {
-      const auto v = D.cell_corners[e][q];
-      if (l == 0) {
-        element::fine_diagonal_block(d.fine[e], q, block);
-      } else {
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) block[3 * i + j] = A[24 * (3 * q + i) + 3 * q + j];
-      }
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-          double a = block[3 * i + j];
-          if (l == 0) a *= d.mask_local[3 * v + i] * d.mask_local[3 * v + j];
-          dl[9 * v + 3 * i + j] += a;
-        }
-    }
-  }
-  check_petsc(VecRestoreArray(diag_l, &dl), "array");
-  check_petsc(VecSet(diag_g, 0.0), "VecSet");
-  check_petsc(VecScatterBegin(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE),
-              "scatter");
-  check_petsc(VecScatterEnd(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE), "scatter");
+  PetscCall(VecGetArray(diag_l, &dl));
+  d.op->add_diagonal_blocks(dl);
+  PetscCall(VecRestoreArray(diag_l, &dl));
+  PetscCall(VecSet(diag_g, 0.0));
+  PetscCall(VecScatterBegin(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(diag_scatter, diag_l, diag_g, ADD_VALUES, SCATTER_REVERSE));
   const PetscScalar* dg;
-  check_petsc(VecGetArrayRead(diag_g, &dg), "array");
+  PetscCall(VecGetArrayRead(diag_g, &dg));
   PetscScalar* m;
-  check_petsc(VecGetArray(d.mask, &m), "array");
+  PetscCall(VecGetArray(d.mask, &m));
   d.diag_inv.assign(9 * std::size_t(D.num_owned), 0.0);
   for (std::int32_t i = 0; i < D.num_owned; ++i) {
     double block[9];
@@ -461,77 +336,20 @@ void Multigrid::build_diagonal(int l) {
       }
     }
     if (!invert3(block, &d.diag_inv[9 * i]))
-      throw SolverError("gmg: singular 3x3 diagonal block on level " + std::to_string(l));
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_LU_ZRPVT,
+              "gmg: singular 3x3 diagonal block on level %d", l);
   }
-  check_petsc(VecRestoreArray(d.mask, &m), "array");
-  check_petsc(VecRestoreArrayRead(diag_g, &dg), "array");
-  check_petsc(VecDestroy(&diag_g), "VecDestroy");
-  check_petsc(VecDestroy(&diag_l), "VecDestroy");
-  check_petsc(VecScatterDestroy(&diag_scatter), "VecScatterDestroy");
-  if (l > 0) refresh_local_mask(d);
-}
-
-void Multigrid::apply_local(int l, const double* x, double* y) const {
-  const auto& D = levels_[l].layout;
-  const auto& d = *data_[l];
-  double xe[24], ye[24];
-  if (l == 0) {
-    const auto& m = d.mask_local;
-    for (std::size_t e = 0; e < D.cells.size(); ++e) {
-      const auto& corners = D.cell_corners[e];
-      element::gather_cell(x, corners.data(), xe);
-      std::fill(ye, ye + 24, 0.0);
-      if (d.cell_masked[e]) {
-        for (int q = 0; q < 8; ++q)
-          for (int k = 0; k < 3; ++k) xe[3 * q + k] *= m[3 * corners[q] + k];
-        fine_cell_apply_add(d.fine[e], xe, ye);
-        for (int q = 0; q < 8; ++q)
-          for (int k = 0; k < 3; ++k) ye[3 * q + k] *= m[3 * corners[q] + k];
-      } else {
-        fine_cell_apply_add(d.fine[e], xe, ye);
-      }
-      element::scatter_add_cell(ye, corners.data(), y);
-    }
-  } else {
-    for (std::size_t e = 0; e < D.cells.size(); ++e) {
-      element::gather_cell(x, D.cell_corners[e].data(), xe);
-      std::fill(ye, ye + 24, 0.0);
-      packed_apply_add(&d.cell_matrix[kPackedSize * e], xe, ye);
-      element::scatter_add_cell(ye, D.cell_corners[e].data(), y);
-    }
-  }
+  PetscCall(VecRestoreArray(d.mask, &m));
+  PetscCall(VecRestoreArrayRead(diag_g, &dg));
+  PetscCall(VecDestroy(&diag_g));
+  PetscCall(VecDestroy(&diag_l));
+  PetscCall(VecScatterDestroy(&diag_scatter));
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode Multigrid::apply_level_impl(int l, Vec x, Vec y) {
-  PetscFunctionBeginUser;
-  auto& d = *data_[l];
-  PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
-  PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
-  PetscCall(VecSet(d.yl, 0.0));
-  const PetscScalar* xa;
-  PetscScalar* ya;
-  PetscCall(VecGetArrayRead(d.xl, &xa));
-  PetscCall(VecGetArray(d.yl, &ya));
-  apply_local(l, xa, ya);
-  PetscCall(VecRestoreArrayRead(d.xl, &xa));
-  PetscCall(VecRestoreArray(d.yl, &ya));
-  PetscCall(VecSet(y, 0.0));
-  PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, y));
-  PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, y));
-  // Prescribed and dead DOFs: identity rows.
-  const PetscScalar *m, *xg;
-  PetscScalar* yg;
-  PetscInt n;
-  PetscCall(VecGetLocalSize(y, &n));
-  PetscCall(VecGetArrayRead(d.mask, &m));
-  PetscCall(VecGetArrayRead(x, &xg));
-  PetscCall(VecGetArray(y, &yg));
-  for (PetscInt i = 0; i < n; ++i)
-    if (m[i] == 0.0) yg[i] += xg[i];
-  PetscCall(VecRestoreArray(y, &yg));
-  PetscCall(VecRestoreArrayRead(x, &xg));
-  PetscCall(VecRestoreArrayRead(d.mask, &m));
-  PetscFunctionReturn(0);
+  const auto& d = *data_[l];
+  return assembly::apply(d.dm, *d.op, x, y, d.mask);
 }
 
 PetscErrorCode Multigrid::apply_fine(Vec x, Vec y) {
@@ -567,27 +385,7 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
     } else {
       std::fill(ya, ya + 3 * D.num_local(), 0.0);
     }
-    double xe[24], y3[3];
-    for (std::size_t e = 0; e < D.cells.size(); ++e) {
-      const auto& corners = D.cell_corners[e];
-      const int q = corner_of_colour(d.cell_pos[e].data(), k);
-      if (l == 0) {
-        element::gather_cell(xa, corners.data(), xe);
-        if (d.cell_masked[e]) {
-          const auto& m = d.mask_local;
-          for (int p = 0; p < 8; ++p)
-            for (int c = 0; c < 3; ++c) xe[3 * p + c] *= m[3 * corners[p] + c];
-          fine_row_block(d.fine[e], q, xe, y3);
-          for (int c = 0; c < 3; ++c) y3[c] *= m[3 * corners[q] + c];
-        } else {
-          fine_row_block(d.fine[e], q, xe, y3);
-        }
-      } else {
-        element::gather_cell(xa, corners.data(), xe);
-        packed_row_block(&d.cell_matrix[kPackedSize * e], q, xe, y3);
-      }
-      for (int c = 0; c < 3; ++c) ya[3 * corners[q] + c] += y3[c];
-    }
+    d.op->apply_add_colour(d.cell_pos, k, xa, ya);
     PetscCall(VecRestoreArrayRead(serial ? x : d.xl, &xa));
     PetscCall(VecRestoreArray(d.yl, &ya));
     Vec r = d.yl;  // serial: the residual contributions are already complete
@@ -647,7 +445,8 @@ PetscErrorCode block_jacobi(const std::vector<double>& diag_inv, Vec x, Vec y) {
 
 }  // namespace
 
-void Multigrid::estimate_lambda_max(int l) {
+PetscErrorCode Multigrid::estimate_lambda_max(int l) {
+  PetscFunctionBeginUser;
   // Power iteration on D^{-1} A from a pseudo-random start vector that is a function of
   // the canonical copy numbering, so the estimate (and hence the smoother) is the same on
   // any number of ranks.
@@ -655,28 +454,29 @@ void Multigrid::estimate_lambda_max(int l) {
   const auto& D = levels_[l].layout;
   Vec v = d.tmp, w = d.r;
   PetscScalar* a;
-  check_petsc(VecGetArray(v, &a), "array");
+  PetscCall(VecGetArray(v, &a));
   for (std::int32_t i = 0; i < D.num_owned; ++i)
     for (int c = 0; c < 3; ++c) {
       const double k = double(3 * std::int64_t(D.copies[i]) + c);
       const double hash = std::sin(12.9898 * k + 78.233) * 43758.5453;
       a[3 * i + c] = 0.5 + (hash - std::floor(hash));
     }
-  check_petsc(VecRestoreArray(v, &a), "array");
+  PetscCall(VecRestoreArray(v, &a));
   // Power iteration approaches lambda_max from below; the top of a smoothing spectrum is
   // dense, so 15 iterations land within a few per cent, and Chebyshev's interval
   // extends 10% above the estimate.
   double lambda = 0.0;
   for (int it = 0; it < 15; ++it) {
     PetscReal nv;
-    check_petsc(VecNormalize(v, &nv), "normalize");
-    check_petsc(apply_level_impl(l, v, w), "apply");
-    check_petsc(block_jacobi(d.diag_inv, w, v), "jacobi");
+    PetscCall(VecNormalize(v, &nv));
+    PetscCall(apply_level_impl(l, v, w));
+    PetscCall(block_jacobi(d.diag_inv, w, v));
     PetscReal nw;
-    check_petsc(VecNorm(v, NORM_2, &nw), "norm");
+    PetscCall(VecNorm(v, NORM_2, &nw));
     lambda = nw;
   }
   d.lambda_max = lambda;
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode Multigrid::chebyshev(int l, Vec b, Vec x, int degree) {
@@ -718,49 +518,24 @@ PetscErrorCode Multigrid::smooth(int l, Vec b, Vec x, int sweeps, bool reverse) 
   PetscFunctionReturn(0);
 }
 
-void Multigrid::build_coarsest() {
+PetscErrorCode Multigrid::build_coarsest() {
+  PetscFunctionBeginUser;
   const int l = num_levels() - 1;
   const auto& lev = levels_[l];
   auto& d = *data_[l];
   // The pattern never changes: re-filling the same matrix lets the factorization keep
   // its symbolic phase and redo only the numeric one.
   if (!coarse_matrix_)
-    check_petsc(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_),
-                "create_matrix");
-  else
-    check_petsc(MatZeroEntries(coarse_matrix_), "MatZeroEntries");
-  double A[576];
-  PetscInt idx[8];
-  for (std::size_t e = 0; e < lev.layout.cells.size(); ++e) {
-    if (l == 0)
-      masked_fine_operator(e, A);
-    else
-      unpack_symmetric(&d.cell_matrix[kPackedSize * e], A);
-    for (int q = 0; q < 8; ++q)
-      idx[q] = lev.layout.global_block[lev.layout.copies[lev.layout.cell_corners[e][q]]];
-    check_petsc(MatSetValuesBlocked(coarse_matrix_, 8, idx, 8, idx, A, ADD_VALUES),
-                "MatSetValuesBlocked");
-  }
-  PetscInt lo;
-  check_petsc(VecGetOwnershipRange(d.mask, &lo, nullptr), "range");
-  const PetscScalar* m;
-  PetscInt n;
-  check_petsc(VecGetLocalSize(d.mask, &n), "size");
-  check_petsc(VecGetArrayRead(d.mask, &m), "array");
-  for (PetscInt i = 0; i < n; ++i)
-    if (m[i] == 0.0)
-      check_petsc(MatSetValue(coarse_matrix_, lo + i, lo + i, 1.0, ADD_VALUES), "MatSetValue");
-  check_petsc(VecRestoreArrayRead(d.mask, &m), "array");
-  check_petsc(MatAssemblyBegin(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
-  check_petsc(MatAssemblyEnd(coarse_matrix_, MAT_FINAL_ASSEMBLY), "assembly");
+    PetscCall(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_));
+  PetscCall(assembly::assemble(*d.op, d.mask, coarse_matrix_));
   if (!coarse_ksp_) {
-    check_petsc(KSPCreate(comm_, &coarse_ksp_), "KSPCreate");
-    check_petsc(KSPSetOptionsPrefix(coarse_ksp_, "gmg_coarse_"), "prefix");
-    check_petsc(KSPSetType(coarse_ksp_, KSPPREONLY), "KSPSetType");
+    PetscCall(KSPCreate(comm_, &coarse_ksp_));
+    PetscCall(KSPSetOptionsPrefix(coarse_ksp_, "gmg_coarse_"));
+    PetscCall(KSPSetType(coarse_ksp_, KSPPREONLY));
     PC pc;
-    check_petsc(KSPGetPC(coarse_ksp_, &pc), "KSPGetPC");
-    check_petsc(PCSetType(pc, PCCHOLESKY), "PCSetType");
-    check_petsc(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "solver type");
+    PetscCall(KSPGetPC(coarse_ksp_, &pc));
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
     // The masked Galerkin operator may be singular, though consistent: two coarse copies
     // whose columns of P differ only on prescribed fine DOFs (found on bunny.yaml near
     // its support: three zero eigenvalues of 2814). MUMPS then divides by a pivot that
@@ -768,11 +543,12 @@ void Multigrid::build_coarsest() {
     // factorization's parallel scheduling (bunny_cuts on 2 ranks stopped with
     // DIVERGED_NANORINF or DIVERGED_INDEFINITE_PC in about 1 run of 8). Null-pivot
     // detection (ICNTL(24)) sets those components to zero instead; P x is unchanged.
-    check_petsc(set_option_if_unset("-gmg_coarse_mat_mumps_icntl_24", "1"), "options");
-    check_petsc(KSPSetFromOptions(coarse_ksp_), "KSPSetFromOptions");
+    PetscCall(set_option_if_unset("-gmg_coarse_mat_mumps_icntl_24", "1"));
+    PetscCall(KSPSetFromOptions(coarse_ksp_));
   }
-  check_petsc(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_), "KSPSetOperators");
-  check_petsc(KSPSetUp(coarse_ksp_), "KSPSetUp");
+  PetscCall(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_));
+  PetscCall(KSPSetUp(coarse_ksp_));
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
@@ -801,24 +577,13 @@ PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Multigrid::vcycle(Vec b, Vec x) {
+PetscErrorCode Multigrid::cycle(Vec b, Vec x) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
   PetscCall(VecCopy(b, data_[0]->b));
   PetscCall(cycle_level(0, true));
   PetscCall(VecCopy(data_[0]->x, x));
   PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode Multigrid::attach(PC pc) {
-  PetscFunctionBeginUser;
-  PetscCall(PCSetType(pc, PCSHELL));
-  PetscCall(PCShellSetContext(pc, this));
-  PetscCall(PCShellSetApply(pc, pc_apply));
-  PetscCall(PCShellSetView(pc, pc_view));
-  PetscCall(PCShellSetName(pc, opt_.cycle_gamma == 2 ? "hexcut geometric multigrid (W-cycle)"
-                                                     : "hexcut geometric multigrid (V-cycle)"));
   PetscFunctionReturn(0);
 }
 

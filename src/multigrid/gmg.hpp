@@ -1,5 +1,5 @@
-// hexcut's matrix-free geometric multigrid (doc/theory.md, "Geometric multigrid"), as a PETSc
-// PCSHELL.
+// hexcut's matrix-free geometric multigrid (doc/theory.md, "Geometric multigrid"), applied as the
+// PETSc preconditioner type "hexcut" (multigrid/pc_hexcut.hpp).
 //
 // Level 0 is the simulation's own discretization, applied matrix-free from per-cell
 // lambda, mu, rho and rotation (nothing 24x24 is stored per fine cell). Coarse levels
@@ -12,22 +12,8 @@
 // V-cycle is symmetric) or Chebyshev on point-block Jacobi. The coarsest level is
 // assembled and factored (Cholesky, MUMPS by default; options prefix -gmg_coarse_).
 //
-// Options (PETSc options database):
-//   -gmg_levels N            number of levels (default: automatic)
-//   -gmg_coarse_dofs N       automatic depth: stop at <= N DOFs (default 3000)
-//   -gmg_hierarchy components|naive   coarsening (default components)
-//   -gmg_smoother gs|chebyshev        (default chebyshev)
-//   -gmg_presmooth N, -gmg_postsmooth N   sweeps (Chebyshev: degree) (default 2, 2)
-//   -gmg_omega W             Gauss-Seidel relaxation weight (default 1)
-//   -gmg_cycle v|w           cycle type (default v; the simulation picks w for static
-//                            analyses of cut bodies, see analysis/simulation.cpp)
-//   -gmg_rebuild_tol T       rotation-only updates rebuild the Galerkin blocks of the
-//                            coarse cells with a descendant whose rotation moved by more
-//                            than T (max entry) since its block was built (default 0:
-//                            any change; the fine operator always uses the current one)
-//   -gmg_eig_every N         Chebyshev: re-estimate lambda_max on every Nth rotation-only
-//                            update (default 10; always after a full rebuild)
-//   -gmg_view                print the hierarchy after set-up
+// The options (-gmg_*) are those of the PC type "hexcut" that applies it (multigrid/pc_hexcut.hpp,
+// doc/user-guide.md "Solvers").
 #pragma once
 
 #include <petscksp.h>
@@ -35,7 +21,9 @@
 #include <memory>
 #include <vector>
 
+#include "assembly/fine_cells.hpp"
 #include "assembly/operator.hpp"
+#include "multigrid/stored_cells.hpp"
 #include "hierarchy/hierarchy.hpp"
 #include "lattice/lattice.hpp"
 
@@ -63,9 +51,6 @@ struct Options {
   bool view = false;
 };
 
-/// Reads the -gmg_* options. Throws InputError on invalid values.
-Options read_options();
-
 class Multigrid {
  public:
   /// Builds the hierarchy for the model's lattice and distribution. `layout` and
@@ -84,21 +69,20 @@ class Multigrid {
   /// rotations are compared with those the blocks were built from, and only the coarse
   /// cells above changed fine cells are rebuilt (their ancestors). Lambda, mu and rho
   /// are assumed unchanged between updates: call invalidate() after changing them.
-  void update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
-              const std::vector<PetscInt>& constrained_rows);
+  PetscErrorCode update(const assembly::CellData& cells, const assembly::OperatorWeights& w,
+                        const std::vector<PetscInt>& constrained_rows);
   /// Makes the next update() rebuild everything.
   void invalidate() { built_ = false; }
   /// Cells of level l (on this rank) whose operator data the last update() rebuilt.
   std::int64_t rebuilt_cells(int l) const { return rebuilt_[l]; }
 
-  /// One V-cycle: x = M^{-1} b (x is overwritten).
-  PetscErrorCode vcycle(Vec b, Vec x);
+  /// One cycle (V or W, Options::cycle_gamma) from a zero guess: x = M^{-1} b (x is
+  /// overwritten).
+  PetscErrorCode cycle(Vec b, Vec x);
   /// y = A x with the constrained fine operator, matrix-free.
   PetscErrorCode apply_fine(Vec x, Vec y);
   /// A MATSHELL of the constrained fine operator (owned by the Multigrid).
   Mat fine_operator() const { return shell_; }
-  /// Makes `pc` a PCSHELL running one V-cycle per application.
-  PetscErrorCode attach(PC pc);
   /// Prints levels, cells, DOFs, stored numbers and memory (-gmg_view).
   PetscErrorCode view(PetscViewer viewer) const;
 
@@ -121,24 +105,26 @@ class Multigrid {
 
  private:
   struct LevelData;
-  void apply_local(int l, const double* x_local, double* y_local) const;
   PetscErrorCode apply_level_impl(int l, Vec x, Vec y);
   PetscErrorCode smooth(int l, Vec b, Vec x, int sweeps, bool reverse);
   PetscErrorCode gauss_seidel(int l, Vec b, Vec x, bool reverse);
   PetscErrorCode chebyshev(int l, Vec b, Vec x, int degree);
   PetscErrorCode cycle_level(int l, bool zero_guess);
-  void build_diagonal(int l);
-  void masked_fine_operator(std::size_t e, double* A) const;
+  PetscErrorCode build_diagonal(int l);
   void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
-  void refresh_local_mask(LevelData& d);
-  void estimate_lambda_max(int l);
-  void build_coarsest();
+  PetscErrorCode local_mask(std::vector<double>* mask);
+  PetscErrorCode build(const lattice::Lattice& lattice, const topology::VertexCopies& copies,
+                       const topology::Partition& partition, const topology::DofLayout& layout,
+                       DM fine_dm);
+  PetscErrorCode estimate_lambda_max(int l);
+  PetscErrorCode build_coarsest();
 
   MPI_Comm comm_;
   Options opt_;
   std::vector<hierarchy::Level> levels_;
   std::vector<std::unique_ptr<LevelData>> data_;
   const assembly::CellData* fine_cells_ = nullptr;
+  std::unique_ptr<assembly::FineCells> fine_op_;  // level 0's operator
   assembly::OperatorWeights weights_;
   bool built_ = false;
   std::vector<double> built_rotation_;  // level 0: rotation each cell's parent block saw

@@ -21,6 +21,8 @@ using element::FineCell;
 using element::three_rows;
 
 using element::child_weight;
+using element::corner_colour;
+using element::corner_of_colour;
 
 /// A_parent += W^T A_child W with W = kron(w, I3), w the 8x8 child weights of `octant`
 /// (A_child symmetric). w has 27 nonzeros of 64 (a fine corner lies on a coarse corner,
@@ -117,19 +119,6 @@ HEXCUT_HD inline bool invert3(const double* a, double* inv) {
   inv[7] = (a[1] * a[6] - a[0] * a[7]) * s;
   inv[8] = (a[0] * a[4] - a[1] * a[3]) * s;
   return true;
-}
-
-/// Parity colour (0..7) of corner q of a cell at level position p: the colour of the
-/// lattice vertex p + offset(q). The 8 corners of a cell have 8 different colours.
-HEXCUT_HD inline int corner_colour(const int* p, int q) {
-  return ((p[0] + (q & 1)) & 1) + 2 * ((p[1] + ((q >> 1) & 1)) & 1) +
-         4 * ((p[2] + ((q >> 2) & 1)) & 1);
-}
-
-/// The corner of a cell at position p that has colour k.
-HEXCUT_HD inline int corner_of_colour(const int* p, int k) {
-  return ((k & 1) ^ (p[0] & 1)) + 2 * (((k >> 1) & 1) ^ (p[1] & 1)) +
-         4 * (((k >> 2) & 1) ^ (p[2] & 1));
 }
 
 }  // namespace hexcut::multigrid

@@ -4,6 +4,7 @@
 
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
+#include "multigrid/pc_hexcut.hpp"
 
 namespace hexcut::solve {
 namespace {
@@ -35,13 +36,18 @@ PetscErrorCode insert_deck_options(const deck::Solver& s) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode set_default_options(const deck::Solver& s) {
+namespace {
+
+/// The chosen solver's KSP and PC types and settings, on this KSP before KSPSetFromOptions,
+/// so the command line and the deck's petsc_options override each of them.
+PetscErrorCode set_solver_defaults(KSP ksp, const deck::Solver& s, ScopedOptionDefaults* db) {
   PetscFunctionBeginUser;
-  PetscCall(insert_deck_options(s));
+  PC pc;
+  PetscCall(KSPGetPC(ksp, &pc));
   switch (s.type) {
     case deck::Solver::Type::cg_jacobi:
-      PetscCall(set_option_if_unset("-ksp_type", "cg"));
-      PetscCall(set_option_if_unset("-pc_type", "jacobi"));
+      PetscCall(KSPSetType(ksp, KSPCG));
+      PetscCall(PCSetType(pc, PCJACOBI));
       break;
     case deck::Solver::Type::hypre:
       // BoomerAMG for 3D elasticity (doc/user-guide.md, "hypre settings"):
@@ -56,49 +62,57 @@ PetscErrorCode set_default_options(const deck::Solver& s) {
       //    low. Without it the vector interpolation costs more time than it saves.
       // Measured on the cantilever example (20k DOFs): nodal_coarsen 6 took 146
       // iterations; this set 58 and is the fastest of the combinations tried
-      // (doc/benchmarks.md).
-      PetscCall(set_option_if_unset("-ksp_type", "cg"));
-      PetscCall(set_option_if_unset("-pc_type", "hypre"));
-      PetscCall(set_option_if_unset("-pc_hypre_type", "boomeramg"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_nodal_coarsen", "1"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_vec_interp_variant", "2"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_vec_interp_qmax", "4"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_strong_threshold", "0.5"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_coarsen_type", "HMIS"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_interp_type", "ext+i"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_P_max", "4"));
-      PetscCall(set_option_if_unset("-pc_hypre_boomeramg_agg_nl", "1"));
+      // (doc/benchmarks.md). PETSc has setters only for the type: the rest are options,
+      // read by this KSP's PCSetFromOptions.
+      PetscCall(KSPSetType(ksp, KSPCG));
+      PetscCall(PCSetType(pc, PCHYPRE));
+      PetscCall(PCHYPRESetType(pc, "boomeramg"));
+      PetscCall(db->add("-pc_hypre_boomeramg_nodal_coarsen", "1"));
+      PetscCall(db->add("-pc_hypre_boomeramg_vec_interp_variant", "2"));
+      PetscCall(db->add("-pc_hypre_boomeramg_vec_interp_qmax", "4"));
+      PetscCall(db->add("-pc_hypre_boomeramg_strong_threshold", "0.5"));
+      PetscCall(db->add("-pc_hypre_boomeramg_coarsen_type", "HMIS"));
+      PetscCall(db->add("-pc_hypre_boomeramg_interp_type", "ext+i"));
+      PetscCall(db->add("-pc_hypre_boomeramg_P_max", "4"));
+      PetscCall(db->add("-pc_hypre_boomeramg_agg_nl", "1"));
       break;
     case deck::Solver::Type::gamg:
-      // Smoothed aggregation with the 6 rigid-body modes (MatNullSpaceCreateRigidBody).
-      PetscCall(set_option_if_unset("-ksp_type", "cg"));
-      PetscCall(set_option_if_unset("-pc_type", "gamg"));
-      PetscCall(set_option_if_unset("-pc_gamg_type", "agg"));
-      PetscCall(set_option_if_unset("-pc_gamg_threshold", "0.01"));
-      PetscCall(set_option_if_unset("-mg_levels_ksp_type", "chebyshev"));
-      PetscCall(set_option_if_unset("-mg_levels_pc_type", "jacobi"));
+      // Smoothed aggregation with the 6 rigid-body modes (MatNullSpaceCreateRigidBody);
+      // the levels' Chebyshev/Jacobi smoothers are GAMG's own defaults.
+      PetscCall(KSPSetType(ksp, KSPCG));
+      PetscCall(PCSetType(pc, PCGAMG));
+      PetscCall(PCGAMGSetType(pc, PCGAMGAGG));
+      {
+        PetscReal threshold[1] = {0.01};
+        PetscCall(PCGAMGSetThreshold(pc, threshold, 1));
+      }
       break;
     case deck::Solver::Type::gmg:
-      // CG preconditioned by hexcut's V-cycle (a PCSHELL attached by the analysis).
-      PetscCall(set_option_if_unset("-ksp_type", "cg"));
+      // CG preconditioned by hexcut's multigrid (the analysis builds and attaches it).
+      PetscCall(KSPSetType(ksp, KSPCG));
+      PetscCall(PCSetType(pc, multigrid::PCHEXCUT));
       break;
     case deck::Solver::Type::gmg_cycles:
-      // The theses' real-time mode: a fixed number of V-cycles (Richardson), warm-started
-      // from the previous step, no convergence test.
-      PetscCall(set_option_if_unset("-ksp_type", "richardson"));
+      // The theses' real-time mode: a fixed number of multigrid cycles (Richardson),
+      // warm-started from the previous step, no convergence test.
+      PetscCall(KSPSetType(ksp, KSPRICHARDSON));
+      PetscCall(PCSetType(pc, multigrid::PCHEXCUT));
       break;
     case deck::Solver::Type::direct:
       // Cholesky through MUMPS (parallel); the matrix is SPD after symmetric elimination.
-      PetscCall(set_option_if_unset("-ksp_type", "preonly"));
-      PetscCall(set_option_if_unset("-pc_type", "cholesky"));
-      PetscCall(set_option_if_unset("-pc_factor_mat_solver_type", "mumps"));
+      PetscCall(KSPSetType(ksp, KSPPREONLY));
+      PetscCall(PCSetType(pc, PCCHOLESKY));
+      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
       break;
   }
   PetscFunctionReturn(0);
 }
 
+}  // namespace
+
 PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* ksp) {
   PetscFunctionBeginUser;
+  PetscCall(multigrid::register_pc());
   PetscCall(KSPCreate(comm, ksp));
   PetscCall(KSPSetDM(*ksp, dm));
   PetscCall(KSPSetDMActive(*ksp, PETSC_FALSE));  // operators come from hexcut, not the DM
@@ -110,7 +124,11 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* k
     PetscCall(KSPSetTolerances(*ksp, s.rtol, PETSC_DEFAULT, PETSC_DEFAULT, s.max_iterations));
     PetscCall(KSPSetNormType(*ksp, KSP_NORM_UNPRECONDITIONED));
   }
-  PetscCall(KSPSetFromOptions(*ksp));
+  {
+    ScopedOptionDefaults defaults;
+    PetscCall(set_solver_defaults(*ksp, s, &defaults));
+    PetscCall(KSPSetFromOptions(*ksp));
+  }
   // Iterative solvers start from the last solution (time steps, load steps, fixed-point
   // iterations); a direct solve (preonly) rejects an initial guess.
   PetscBool preonly = PETSC_FALSE;
@@ -120,9 +138,15 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& s, KSP* k
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode set_operator(KSP ksp, const deck::Solver& s, Mat A, Vec coordinates) {
+PetscErrorCode set_operator(KSP ksp, const deck::Solver&, Mat A, Vec coordinates) {
   PetscFunctionBeginUser;
-  if (coordinates && (s.type == deck::Solver::Type::hypre || s.type == deck::Solver::Type::gamg)) {
+  // The algebraic multigrids build their coarse spaces from the rigid-body modes, whatever
+  // chose them (the deck or -pc_type).
+  PC pc;
+  PetscBool algebraic = PETSC_FALSE;
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &algebraic, PCHYPRE, PCGAMG, ""));
+  if (coordinates && algebraic) {
     MatNullSpace rigid;
     PetscCall(MatNullSpaceCreateRigidBody(coordinates, &rigid));
     PetscCall(MatSetNearNullSpace(A, rigid));

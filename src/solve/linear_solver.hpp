@@ -1,7 +1,7 @@
-// The comparison solvers (issue 2 §7): CG + Jacobi, CG + hypre BoomerAMG, CG + PETSc
-// GAMG, and a sparse direct Cholesky (MUMPS). Each is a KSP configured with defaults
-// that suit elasticity; every default is set in the PETSc options database only when
-// the user did not set it, so command-line and deck `petsc_options` always win.
+// The solvers (doc/user-guide.md, "Solvers"): CG with hexcut's multigrid, and the comparison
+// solvers CG + Jacobi, CG + hypre BoomerAMG, CG + PETSc GAMG and a sparse direct Cholesky
+// (MUMPS). Each is a KSP configured with defaults that suit elasticity, set on that KSP before
+// KSPSetFromOptions, so command-line and deck `petsc_options` always win.
 #pragma once
 
 #include <petscksp.h>
@@ -26,12 +26,11 @@ struct SolveRecord {
 /// line set them already.
 PetscErrorCode insert_deck_options(const deck::Solver& solver);
 
-/// insert_deck_options, then the solver's defaults (unless already set): called once
-/// before any KSP is created.
-PetscErrorCode set_default_options(const deck::Solver& solver);
-
-/// Creates a KSP for the chosen solver over the DM's layout. `coordinates` (owned
-/// reference positions, bs 3) give the rigid-body modes for hypre and GAMG.
+/// Creates a KSP for the chosen solver over the DM's layout: the solver's KSP and PC types
+/// and settings are set on this KSP (not in the options database), then KSPSetFromOptions,
+/// so every PETSc option the user gives (command line, deck petsc_options) overrides them,
+/// -pc_type included. With the PC type "hexcut" (solver gmg, gmg-cycles, or -pc_type
+/// hexcut) the caller attaches the multigrid (multigrid::pc_set_multigrid).
 PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& solver, KSP* ksp);
 
 /// With -hexcut_residual_history FILE, appends "solve iteration seconds residual" per
@@ -39,7 +38,8 @@ PetscErrorCode create_solver(MPI_Comm comm, DM dm, const deck::Solver& solver, K
 /// the monitored residual norm. For plots of residual against time.
 PetscErrorCode attach_residual_history(KSP ksp);
 
-/// Sets the operator (re-used pattern) and the near-null space from coordinates.
+/// Sets the operator (re-used pattern) and, for hypre and GAMG, the near-null space from
+/// `coordinates` (owned reference positions, bs 3: the rigid-body modes).
 PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coordinates);
 
 /// How far the true relative residual ||b - A x||/||b|| of a converged solve may exceed

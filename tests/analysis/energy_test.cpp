@@ -95,8 +95,8 @@ TEST(CorotationalEnergy, FreeSpinningBodyKeepsEnergyCentreAndMomentum) {
   const double k0 = job.sim->kinetic_energy(job.state);
   double dk = 0, de = 0, dc = 0, dl = 0;
   int max_solves = 0;
-  analysis::Observer obs;
-  obs.on_step = [&](const analysis::State& s) {
+  analysis::DriverHooks hooks;
+  hooks.on_step = [&](const analysis::State& s) {
     max_solves = std::max(max_solves, job.sim->last_step_solves());
     const double k = job.sim->kinetic_energy(s);
     const double e = k + job.sim->elastic_energy(s);
@@ -107,8 +107,8 @@ TEST(CorotationalEnergy, FreeSpinningBodyKeepsEnergyCentreAndMomentum) {
     dc = std::max(dc, (c - c0).norm());
     dl = std::max(dl, (L - L0).norm() / L0.norm());
   };
-  // run_dynamic checks the energy balance too: this run must pass it.
-  job.sim->run_dynamic(job.state, obs);
+  // The driver checks the energy balance too: this run must pass it.
+  job.run(hooks);
   EXPECT_EQ(job.state.step, 1000);
   std::printf(
       "spin: max |K/K0 - 1| %.2e, |(K + W)/K0 - 1| %.2e, centre of mass moved %.2e m, "
@@ -226,7 +226,7 @@ TEST(EnergyBalance, LaggedRotationsAreStopped) {
   probe.spin(2 * M_PI * Eigen::Vector3d(0.3, 0.2, 1.0).normalized(), c0);
   job.sim->initial_acceleration(job.state);
   const double k0 = job.sim->kinetic_energy(job.state);
-  EXPECT_THROW(job.sim->run_dynamic(job.state, {}), SolverError);
+  EXPECT_THROW(job.run(), SolverError);
   const double k = job.sim->kinetic_energy(job.state);
   std::printf("  stopped at step %lld with K/K0 = %.3f\n", (long long)job.state.step, k / k0);
   EXPECT_LT(job.state.step, 1000);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/driver.hpp"
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
 #include "analysis/simulation.hpp"
@@ -22,22 +23,31 @@ namespace hexcut::testing {
 /// put into the options database, so use one solver type per process at a time or
 /// clear the options between (PetscOptionsClear is called by the constructor).
 struct Job {
+  MPI_Comm comm;
   deck::Deck deck;
   analysis::Model model;
   std::unique_ptr<analysis::Simulation> sim;
   analysis::State state;
 
   /// `options`: PETSc options for this job (e.g. "-gmg_levels 3"), set after clearing.
-  Job(MPI_Comm comm, const std::string& yaml, int superblock = 8, const char* options = nullptr) {
+  Job(MPI_Comm comm_, const std::string& yaml, int superblock = 8, const char* options = nullptr)
+      : comm(comm_) {
     deck = deck::parse_deck(yaml, "test.yaml");
     check_petsc(PetscOptionsClear(nullptr), "PetscOptionsClear");
     if (options)
       check_petsc(PetscOptionsInsertString(nullptr, options), "PetscOptionsInsertString");
-    check_petsc(solve::set_default_options(deck.solver), "set_default_options");
+    check_petsc(solve::insert_deck_options(deck.solver), "insert_deck_options");
     check_petsc(analysis::build_model(comm, deck, superblock, &model), "build_model");
     sim = std::make_unique<analysis::Simulation>(comm, model, deck);
     check_petsc(analysis::create_state(model.dm, &state), "create_state");
   }
+  /// Takes the analysis' steps from the current state with analysis::Driver, as the app
+  /// does (without output; cuts at t = 0 and the initial acceleration are the caller's, as
+  /// Driver::prepare and Driver::begin do them in the app).
+  void run(const analysis::DriverHooks& hooks = {}) {
+    analysis::Driver(comm, deck, model, state, sim, hooks).run();
+  }
+
   ~Job() {
     analysis::destroy_state(&state);
     sim.reset();

@@ -13,9 +13,9 @@ std::vector<double> solve_on(MPI_Comm comm, const std::string& yaml,
   Job job(comm, yaml, 4);
   if (job.deck.analysis.type == deck::Analysis::Type::dynamic) {
     job.sim->initial_acceleration(job.state);
-    job.sim->run_dynamic(job.state, {});
+    job.run();
   } else {
-    job.sim->run_static(job.state, {});
+    job.run();
   }
   if (iterations) KSPGetIterationNumber(job.sim->ksp(), iterations);
   return job.canonical(job.state.u);

@@ -62,7 +62,7 @@ TEST(Static, PatchTestReproducesAffineField) {
   }
   for (auto& f : values) cons.value.push_back(&f);
 
-  job.sim->run_static(job.state, {});
+  job.run();
   const auto u = job.canonical(job.state.u);
   double max_err = 0, max_u = 0;
   int interior = 0;
@@ -105,7 +105,7 @@ TEST(Static, CantileverApproachesTimoshenko) {
   std::vector<double> errors;
   for (double h : {0.05, 0.025, 0.0125}) {
     Job job(PETSC_COMM_WORLD, cantilever_deck(h, "{type: static}", kDirect, L, b, t, P));
-    job.sim->run_static(job.state, {});
+    job.run();
     const auto u = job.canonical(job.state.u);
     double sum = 0;
     int n = 0;
@@ -142,7 +142,7 @@ TEST(Static, EdgeTouchingCubesMoveIndependently) {
   Job job(PETSC_COMM_WORLD, yaml);
   // 2x2x2 cells per cube: 27 vertices each; the shared edge (x=1,y=1, 3 vertices) is duplicated.
   EXPECT_EQ(job.model.copies.num_copies, 54);
-  job.sim->run_static(job.state, {});
+  job.run();
   const auto u = job.canonical(job.state.u);
   double first = 0, second = 0;
   for (std::int32_t v = 0; v < job.model.copies.num_copies; ++v) {

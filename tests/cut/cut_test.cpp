@@ -42,22 +42,13 @@ std::string plane_cut(int axis, double offset, double r, double time, double cx 
   return s + "]}\n    time: " + std::to_string(time) + "\n";
 }
 
-/// Runs the deck's dynamic analysis with its cuts, as the hexcut driver does.
+/// Runs the deck's dynamic analysis with its cuts through analysis::Driver, as the app does.
 void run_with_cuts(MPI_Comm comm, Job& job, const std::function<void(Job&)>& after_step = {}) {
-  Cutter cutter(job.deck, job.model.lattice);
-  auto cut = [&](double t) {
-    if (analysis::apply_due_cuts(comm, job.deck, cutter, t, &job.model, &job.state).links > 0) {
-      job.sim.reset();
-      job.sim = std::make_unique<analysis::Simulation>(comm, job.model, job.deck);
-    }
-  };
-  cut(0.0);
-  job.sim->initial_acceleration(job.state);
-  while (job.state.step < job.deck.analysis.steps) {
-    cut(job.state.time + job.deck.analysis.dt);
-    job.sim->newmark_step(job.state);
-    if (after_step) after_step(job);
-  }
+  analysis::DriverHooks hooks;
+  if (after_step) hooks.on_step = [&](const analysis::State&) { after_step(job); };
+  analysis::Driver driver(comm, job.deck, job.model, job.state, job.sim, hooks);
+  driver.begin();
+  driver.run();
 }
 
 int num_ranks() {
@@ -284,7 +275,7 @@ TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
   run_with_cuts(PETSC_COMM_WORLD, cut_bar);
   Job short_bar(PETSC_COMM_WORLD, bar_deck(0.2, ""));
   short_bar.sim->initial_acceleration(short_bar.state);
-  short_bar.sim->run_dynamic(short_bar.state, {});
+  short_bar.run();
   const double t = cut_bar.state.time;
   const auto u = cut_bar.canonical(cut_bar.state.u);
   const auto u_short = short_bar.canonical(short_bar.state.u);
@@ -419,7 +410,7 @@ PetscInt grid_cube_iterations(bool cuts, const char* options, double dt = 0.0) {
     job.sim->initial_acceleration(job.state);
     job.sim->newmark_step(job.state);
   } else {
-    job.sim->run_static(job.state, {});
+    job.run();
   }
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);

@@ -293,8 +293,8 @@ TEST(Multigrid, VCycleIsSymmetric) {
     VecDuplicate(x, &My);
     fill(x, 0.1);
     fill(y, 2.9);
-    mg->vcycle(x, Mx);
-    mg->vcycle(y, My);
+    mg->cycle(x, Mx);
+    mg->cycle(y, My);
     PetscScalar a, b;
     VecDot(x, My, &a);
     VecDot(Mx, y, &b);
@@ -366,7 +366,7 @@ PetscInt cube_iterations(int n, const char* extra = nullptr) {
       "-0.01]}]\n"
       "solver: {type: gmg, rtol: 1.0e-8}\n";
   Job job(PETSC_COMM_WORLD, yaml, 16, extra);
-  job.sim->run_static(job.state, {});
+  job.run();
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);
   return its;
@@ -388,7 +388,7 @@ TEST(Multigrid, CubeConvergenceIsIndependentOfResolution) {
 
 PetscInt static_iterations(const std::string& yaml, int superblock = 8) {
   Job job(PETSC_COMM_WORLD, yaml, superblock);
-  job.sim->run_static(job.state, {});
+  job.run();
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);
   return its;
@@ -407,7 +407,7 @@ TEST(Multigrid, BunnyConvergesWithin25Iterations) {
       "solver: {type: gmg, rtol: 1.0e-8}\n";
   Job job(PETSC_COMM_WORLD, yaml);
   ASSERT_GE(job.model.lattice.num_cells(), 100000);
-  job.sim->run_static(job.state, {});
+  job.run();
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);
   std::printf("bunny: %d cells, %d GMG-CG iterations\n", int(job.model.lattice.num_cells()),

@@ -1,0 +1,55 @@
+// The fine cells as a CellOperator (doc/theory.md, "Elements", "Corotation", "Architecture"):
+// A_e = w_K R^_e K_e R^_e^T + w_M M_e from each cell's material stiffness (shared per kind),
+// rotation and density, formed on the fly, nothing 24x24 stored per cell. Optionally masked
+// (Dirichlet): the rows and columns of prescribed DOFs are zeroed, the constrained operator the
+// multigrid works with.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "assembly/cell_operator.hpp"
+#include "assembly/operator.hpp"
+#include "element/fine_cell.hpp"
+
+namespace hexcut::assembly {
+
+class FineCells final : public CellOperator {
+ public:
+  /// `cells` (material data and rotations) must outlive the operator, which reads the
+  /// rotations at each application. cache = false: each cell's kernel view (and the
+  /// stiffness of a cell without a kind) is formed at each visit, for operators applied a
+  /// few times; cache = true: formed once here and by set_weights (4.6 KB per cell without
+  /// a kind), for operators applied many times (the multigrid's fine level).
+  FineCells(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
+            bool cache = false);
+
+  /// New weights, or the same after the rotations in `cells` changed: the cached views
+  /// are formed again.
+  void set_weights(const OperatorWeights& w);
+  /// Dirichlet mask: 1 free, 0 prescribed, 3 values per local copy (owned and ghosts).
+  /// Empty: no mask.
+  void set_mask(std::vector<double> mask_local);
+  const OperatorWeights& weights() const { return w_; }
+
+  void apply_add(const double* x, double* y) const override;
+  void apply_add_colour(const CellPositions& position, int k, const double* x,
+                        double* y) const override;
+  void add_diagonal_blocks(double* diag) const override;
+  void cell_matrix(std::size_t e, double* A) const override;
+
+ private:
+  /// The kernel view of cell e; `buffer` (576 doubles) holds a formed stiffness.
+  element::FineCell view(std::size_t e, double* buffer) const;
+  bool masked(std::size_t e) const { return !cell_masked_.empty() && cell_masked_[e]; }
+
+  const CellData* cells_;
+  OperatorWeights w_;
+  bool cache_;
+  std::vector<element::FineCell> views_;               // cache: per cell
+  std::vector<std::array<double, 576>> own_stiffness_;  // cache: cells without a kind
+  std::vector<double> mask_;                            // per local DOF, or empty
+  std::vector<char> cell_masked_;                       // per cell: has a masked DOF
+};
+
+}  // namespace hexcut::assembly

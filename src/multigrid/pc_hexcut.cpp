@@ -1,0 +1,168 @@
+#include "multigrid/pc_hexcut.hpp"
+
+// A PC implementation sets the operations table of struct _p_PC, as PETSc's own PCs do.
+#include <petsc/private/pcimpl.h>
+
+#include <cstring>
+
+namespace hexcut::multigrid {
+
+const char* const PCHEXCUT = "hexcut";
+
+namespace {
+
+struct PCData {
+  Options options;
+  Multigrid* mg = nullptr;
+};
+
+PetscErrorCode pc_apply(PC pc, Vec b, Vec x) {
+  PetscFunctionBeginUser;
+  auto* d = static_cast<PCData*>(pc->data);
+  PetscCheck(d->mg, PetscObjectComm((PetscObject)pc), PETSC_ERR_ORDER,
+             "PC hexcut: no multigrid attached (the analysis attaches it; a PC of this type "
+             "cannot be used for other systems)");
+  PetscCall(d->mg->cycle(b, x));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_view(PC pc, PetscViewer viewer) {
+  PetscFunctionBeginUser;
+  auto* d = static_cast<PCData*>(pc->data);
+  PetscBool ascii;
+  PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+  if (ascii && d->mg) PetscCall(d->mg->view(viewer));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_destroy(PC pc) {
+  PetscFunctionBeginUser;
+  delete static_cast<PCData*>(pc->data);
+  pc->data = nullptr;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) {
+  PetscFunctionBeginUser;
+  auto* d = static_cast<PCData*>(pc->data);
+  Options o;  // each call starts from the defaults: the database says everything
+  PetscInt n;
+  PetscReal w;
+  PetscBool set, flag;
+  const char* hierarchies[] = {"components", "naive"};
+  const char* smoothers[] = {"gs", "chebyshev"};
+  const char* cycles[] = {"v", "w"};
+  PetscInt choice;
+  PetscOptionsHeadBegin(PetscOptionsObject, "hexcut geometric multigrid (doc/user-guide.md)");
+  PetscCall(PetscOptionsInt("-gmg_levels", "Number of levels (0: automatic, from -gmg_coarse_dofs)",
+                            "", o.hierarchy.levels, &n, &set));
+  if (set) {
+    PetscCheck(n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_levels must be >= 1");
+    o.hierarchy.levels = int(n);
+  }
+  PetscCall(PetscOptionsInt("-gmg_coarse_dofs",
+                            "Automatic depth: the first level with at most this many DOFs is the "
+                            "coarsest",
+                            "", PetscInt(o.hierarchy.coarse_dofs), &n, &set));
+  if (set) {
+    PetscCheck(n >= 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_coarse_dofs must be >= 3");
+    o.hierarchy.coarse_dofs = n;
+  }
+  choice = o.hierarchy.mode == hierarchy::Coarsening::naive ? 1 : 0;
+  PetscCall(PetscOptionsEList("-gmg_hierarchy",
+                              "Coarsening: components (pieces of a 2x2x2 block get their own "
+                              "coarse cells) or naive (one coarse cell per block)",
+                              "", hierarchies, 2, hierarchies[choice], &choice, &set));
+  if (set)
+    o.hierarchy.mode = choice == 1 ? hierarchy::Coarsening::naive : hierarchy::Coarsening::components;
+  choice = o.smoother == Smoother::gauss_seidel ? 0 : 1;
+  PetscCall(PetscOptionsEList("-gmg_smoother",
+                              "Smoother: gs (8-colour point-block Gauss-Seidel) or chebyshev "
+                              "(on point-block Jacobi)",
+                              "", smoothers, 2, smoothers[choice], &choice, &set));
+  if (set) o.smoother = choice == 0 ? Smoother::gauss_seidel : Smoother::chebyshev;
+  PetscCall(PetscOptionsInt("-gmg_presmooth", "Sweeps before the coarse correction (Chebyshev: degree)",
+                            "", o.presmooth, &n, &set));
+  if (set) o.presmooth = int(n);
+  PetscCall(PetscOptionsInt("-gmg_postsmooth", "Sweeps after the coarse correction (Chebyshev: degree)",
+                            "", o.postsmooth, &n, &set));
+  if (set) o.postsmooth = int(n);
+  PetscCheck(o.presmooth >= 0 && o.postsmooth >= 0 && o.presmooth + o.postsmooth > 0,
+             PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+             "-gmg_presmooth and -gmg_postsmooth must be >= 0 and not both 0");
+  PetscCall(PetscOptionsReal("-gmg_omega", "Gauss-Seidel relaxation weight, in (0, 2)", "", o.omega,
+                             &w, &set));
+  if (set) {
+    PetscCheck(w > 0 && w < 2, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_omega must be in (0, 2)");
+    o.omega = w;
+  }
+  choice = o.cycle_gamma == 2 ? 1 : 0;
+  PetscCall(PetscOptionsEList("-gmg_cycle",
+                              "Cycle: v or w (default v; w for static analyses of cut bodies)", "",
+                              cycles, 2, cycles[choice], &choice, &set));
+  o.cycle_set = set;
+  if (set) o.cycle_gamma = choice == 1 ? 2 : 1;
+  PetscCall(PetscOptionsReal("-gmg_rebuild_tol",
+                             "Rotation-only updates rebuild the Galerkin blocks above fine cells "
+                             "whose rotation moved by more than this (max entry)",
+                             "", o.rebuild_tolerance, &w, &set));
+  if (set) {
+    PetscCheck(w >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_rebuild_tol must be >= 0");
+    o.rebuild_tolerance = w;
+  }
+  PetscCall(PetscOptionsInt("-gmg_eig_every",
+                            "Chebyshev: re-estimate lambda_max on every Nth rotation-only update",
+                            "", o.eig_every, &n, &set));
+  if (set) {
+    PetscCheck(n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_eig_every must be >= 1");
+    o.eig_every = int(n);
+  }
+  flag = o.view ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
+                             nullptr));
+  o.view = flag;
+  PetscOptionsHeadEnd();
+  d->options = o;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_create(PC pc) {
+  PetscFunctionBeginUser;
+  pc->data = new PCData();
+  pc->ops->apply = pc_apply;
+  pc->ops->view = pc_view;
+  pc->ops->destroy = pc_destroy;
+  pc->ops->setfromoptions = pc_set_from_options;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+PetscErrorCode register_pc() {
+  PetscFunctionBeginUser;
+  static bool registered = false;
+  if (!registered) PetscCall(PCRegister(PCHEXCUT, pc_create));
+  registered = true;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_get_options(PC pc, Options* options) {
+  PetscFunctionBeginUser;
+  PetscBool match;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCHEXCUT, &match));
+  PetscCheck(match, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "the PC is not of type %s", PCHEXCUT);
+  *options = static_cast<PCData*>(pc->data)->options;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode pc_set_multigrid(PC pc, Multigrid* mg) {
+  PetscFunctionBeginUser;
+  PetscBool match;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCHEXCUT, &match));
+  PetscCheck(match, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "the PC is not of type %s", PCHEXCUT);
+  static_cast<PCData*>(pc->data)->mg = mg;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hexcut::multigrid

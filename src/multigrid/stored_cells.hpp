@@ -1,0 +1,47 @@
+// Coarse cells as a CellOperator (doc/theory.md, "Geometric multigrid", "Architecture"): one
+// stored 24x24 block per cell, symmetric and packed (300 numbers), built by the Galerkin
+// product A_C = sum_c W_c^T A_c W_c over the cell's children c in the finer level's operator,
+// with W_c the trilinear weights of the child's octant. The multigrid's coarse levels are
+// StoredCells; composite elements (a coarse level used as the simulation's discretization)
+// will be too.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "assembly/cell_operator.hpp"
+
+namespace hexcut::multigrid {
+
+/// The children of each cell of a coarse level: local cells child[offset[C]..offset[C+1])
+/// of the finer level (all on the same rank: they share a super-block).
+struct Children {
+  std::vector<std::int32_t> offset, child;
+};
+
+class StoredCells final : public assembly::CellOperator {
+ public:
+  /// Zero blocks for the layout's local cells.
+  explicit StoredCells(const topology::DofLayout& layout);
+
+  /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
+  /// cell matrices; `fine_position` (the children's level positions) gives each child's
+  /// octant. Marks the rebuilt cells in dirty() and returns how many there were.
+  std::int64_t galerkin(const assembly::CellOperator& fine,
+                        const assembly::CellPositions& fine_position, const Children& children,
+                        const std::vector<char>& fine_dirty);
+  /// Per local cell: rebuilt by the last galerkin().
+  const std::vector<char>& dirty() const { return dirty_; }
+
+  void apply_add(const double* x, double* y) const override;
+  void apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
+                        double* y) const override;
+  void add_diagonal_blocks(double* diag) const override;
+  void cell_matrix(std::size_t e, double* A) const override;
+
+ private:
+  std::vector<double> packed_;  // 300 per local cell
+  std::vector<char> dirty_;
+};
+
+}  // namespace hexcut::multigrid
