@@ -9,23 +9,24 @@
 #include <vector>
 
 #include "assembly/cell_operator.hpp"
+#include "assembly/fine_cell_kernels.hpp"
 #include "assembly/operator.hpp"
-#include "element/fine_cell.hpp"
 
 namespace hexcut::assembly {
 
 class FineCells final : public CellOperator {
  public:
   /// `cells` (material data and rotations) must outlive the operator, which reads the
-  /// rotations at each application. cache = false: each cell's kernel view (and the
-  /// stiffness of a cell without a kind) is formed at each visit, for operators applied a
-  /// few times; cache = true: formed once here and by set_weights (4.6 KB per cell without
-  /// a kind), for operators applied many times (the multigrid's fine level).
+  /// rotations at each application. cache = false: the stiffness of a cell without a kind
+  /// (per-cell E) is formed at each visit, for operators applied a few times; cache = true:
+  /// formed once here and by set_weights (4.6 KB per such cell), for operators applied
+  /// many times (the multigrid's fine level). The loops are the loop layer's
+  /// (backend/loop.hpp) over the kernels of fine_cell_kernels.hpp.
   FineCells(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
             bool cache = false);
 
-  /// New weights, or the same after the rotations in `cells` changed: the cached views
-  /// are formed again.
+  /// New weights, or the same after the cells' material data changed: the cached
+  /// stiffnesses are formed again.
   void set_weights(const OperatorWeights& w);
   /// Dirichlet mask: 1 free, 0 prescribed, 3 values per local copy (owned and ghosts).
   /// Empty: no mask.
@@ -39,17 +40,18 @@ class FineCells final : public CellOperator {
   void cell_matrix(std::size_t e, double* A) const override;
 
  private:
-  /// The kernel view of cell e; `buffer` (576 doubles) holds a formed stiffness.
-  element::FineCell view(std::size_t e, double* buffer) const;
-  bool masked(std::size_t e) const { return !cell_masked_.empty() && cell_masked_[e]; }
+  /// The kernels' data: pointers into this operator's and the CellData's buffers, with the
+  /// current rotations (or none) and weights.
+  FineCellData data() const;
 
   const CellData* cells_;
   OperatorWeights w_;
   bool cache_;
-  std::vector<element::FineCell> views_;               // cache: per cell
-  std::vector<std::array<double, 576>> own_stiffness_;  // cache: cells without a kind
-  std::vector<double> mask_;                            // per local DOF, or empty
-  std::vector<char> cell_masked_;                       // per cell: has a masked DOF
+  const double* kind_stiffness_ = nullptr;  // CellData's, 576 per kind, contiguous
+  std::vector<std::int32_t> own_;           // cache: per cell, index into own_stiffness_
+  std::vector<double> own_stiffness_;       // cache: 576 per cell without a kind
+  std::vector<double> mask_;                // per local DOF, or empty
+  std::vector<char> cell_masked_;           // per cell: has a masked DOF
 };
 
 }  // namespace hexcut::assembly

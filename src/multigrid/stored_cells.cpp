@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "backend/loop.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -35,40 +36,25 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
   return rebuilt;
 }
 
+StoredCellData StoredCells::data() const {
+  StoredCellData d;
+  d.corners = layout().cell_corners.empty() ? nullptr : layout().cell_corners[0].data();
+  d.packed = packed_.data();
+  return d;
+}
+
 void StoredCells::apply_add(const double* x, double* y) const {
-  const auto& D = layout();
-  double xe[24], ye[24];
-  for (std::size_t e = 0; e < num_cells(); ++e) {
-    element::gather_cell(x, D.cell_corners[e].data(), xe);
-    std::fill(ye, ye + 24, 0.0);
-    packed_apply_add(&packed_[kPackedSize * e], xe, ye);
-    element::scatter_add_cell(ye, D.cell_corners[e].data(), y);
-  }
+  backend::for_each(std::int64_t(num_cells()), StoredApplyAdd{data(), x, y});
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k,
                                    const double* x, double* y) const {
-  const auto& D = layout();
-  double xe[24], y3[3];
-  for (std::size_t e = 0; e < num_cells(); ++e) {
-    const auto& corners = D.cell_corners[e];
-    const int q = corner_of_colour(position[e].data(), k);
-    element::gather_cell(x, corners.data(), xe);
-    packed_row_block(&packed_[kPackedSize * e], q, xe, y3);
-    for (int c = 0; c < 3; ++c) y[3 * corners[q] + c] += y3[c];
-  }
+  const int* p = position.empty() ? nullptr : position[0].data();
+  backend::for_each(std::int64_t(num_cells()), StoredColourRows{data(), p, k, x, y});
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
-  const auto& D = layout();
-  for (std::size_t e = 0; e < num_cells(); ++e) {
-    const double* P = &packed_[kPackedSize * e];
-    for (int q = 0; q < 8; ++q) {
-      const auto v = D.cell_corners[e][q];
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) diag[9 * v + 3 * i + j] += P[packed_index(3 * q + i, 3 * q + j)];
-    }
-  }
+  backend::for_each(std::int64_t(num_cells()), StoredDiagonal{data(), diag});
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {

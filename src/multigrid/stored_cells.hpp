@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "assembly/cell_operator.hpp"
+#include "multigrid/stored_cell_kernels.hpp"
 
 namespace hexcut::multigrid {
 
@@ -40,6 +41,8 @@ class StoredCells final : public assembly::CellOperator {
   void cell_matrix(std::size_t e, double* A) const override;
 
  private:
+  StoredCellData data() const;
+
   std::vector<double> packed_;  // 300 per local cell
   std::vector<char> dirty_;
 };

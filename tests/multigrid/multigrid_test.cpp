@@ -9,6 +9,7 @@
 
 #include "../analysis/fixture.hpp"
 #include "assembly/boundary.hpp"
+#include "backend/loop.hpp"
 #include "multigrid/gmg.hpp"
 
 namespace hexcut::testing {
@@ -434,6 +435,84 @@ TEST(Multigrid, BarsTouchingAlongAnEdgeConvergeLikeOneBar) {
                              "  - add: {box: {min: [0, 0.1, 0.1], max: [1, 0.2, 0.2]}}\n"));
   std::printf("one bar %d iterations, two edge-touching bars %d\n", int(one), int(two));
   EXPECT_LE(two, one + 2);
+}
+
+// The loop layer's cell colours (backend::colour_cells): a concurrent backend scatters the
+// cells of one colour at once, so no two of them may share a vertex copy, on every level.
+// Parity alone (8 colours) is not enough on coarse levels: two pieces of one 2x2x2 block
+// sit at one position and can share copies through a neighbour. Here cells (2,2,2) and
+// (3,3,2) touch only along an edge inside their block and are joined below it through
+// (2,2,1), (2,3,1), (3,3,1): their coarse cells share a position and copies.
+TEST(Multigrid, CellColoursShareNoVertexCopyOnAnyLevel) {
+  auto cell = [](int i, int j, int k) {
+    return "  - add: {box: {min: [" + std::to_string(i) + ", " + std::to_string(j) + ", " +
+           std::to_string(k) + "], max: [" + std::to_string(i + 1) + ", " +
+           std::to_string(j + 1) + ", " + std::to_string(k + 1) + "]}}\n";
+  };
+  const std::string joined_below =
+      "lattice: {h: 1.0, dims: [4, 4, 4]}\n"
+      "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
+      "geometry:\n" +
+      cell(2, 2, 2) + cell(3, 3, 2) + cell(2, 2, 1) + cell(2, 3, 1) + cell(3, 3, 1) +
+      "boundary: {fixed: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}}]}\n"
+      "solver: {type: gmg}\n";
+  const std::string holes =
+      "lattice: {h: 0.1, dims: [8, 8, 8]}\n"
+      "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
+      "geometry:\n  - add: {box: {min: [0, 0, 0], max: [0.8, 0.8, 0.8]}}\n"
+      "  - subtract: {box: {min: [0.1, 0.0, 0.1], max: [0.2, 0.8, 0.7]}}\n"
+      "  - subtract: {box: {min: [0.5, 0.1, 0.0], max: [0.6, 0.7, 0.8]}}\n"
+      "boundary: {fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]}\n"
+      "solver: {type: gmg}\n";
+  // Largest number of cells of one colour that share a copy (1: conflict-free).
+  auto worst_sharing = [](const topology::DofLayout& D, const backend::CellColours& c) {
+    int worst = 0;
+    for (int k = 0; k < c.num_colours(); ++k) {
+      std::map<std::int32_t, int> users;
+      for (auto i = c.offset[k]; i < c.offset[k + 1]; ++i)
+        for (auto v : D.cell_corners[c.cell[i]]) worst = std::max(worst, ++users[v]);
+    }
+    return worst;
+  };
+  for (const auto* y : {&joined_below, &holes}) {
+    Job job(PETSC_COMM_WORLD, *y, 8, "-gmg_levels 2");
+    auto* mg = job.sim->multigrid();
+    int ranks;
+    MPI_Comm_size(PETSC_COMM_WORLD, &ranks);
+    // On 2 ranks the small lattice's partition may leave room for one level only.
+    if (ranks == 1) {
+      ASSERT_EQ(mg->num_levels(), 2);
+    }
+    for (int l = 0; l < mg->num_levels(); ++l) {
+      const auto& lev = mg->level(l);
+      std::vector<std::array<int, 3>> pos, parity_only;
+      for (auto c : lev.layout.cells) pos.push_back({lev.graph.ijk[c][0], lev.graph.ijk[c][1],
+                                                     lev.graph.ijk[c][2]});
+      const auto colours = backend::colour_cells(pos);
+      EXPECT_EQ(worst_sharing(lev.layout, colours), pos.empty() ? 0 : 1) << "level " << l;
+      std::size_t total = 0;
+      for (int k = 0; k < colours.num_colours(); ++k)
+        total += colours.offset[k + 1] - colours.offset[k];
+      EXPECT_EQ(total, pos.size());
+      if (l == 0) {
+        EXPECT_LE(colours.num_colours(), 8);
+      }
+      if (y == &joined_below && l == 1 && !pos.empty()) {
+        // Parity alone would put the two pieces at block (1,1,1) in one colour.
+        backend::CellColours parity;
+        parity.offset.assign(9, 0);
+        for (const auto& p : pos) ++parity.offset[element::parity_octant(p[0], p[1], p[2]) + 1];
+        for (int k = 0; k < 8; ++k) parity.offset[k + 1] += parity.offset[k];
+        parity.cell.resize(pos.size());
+        std::vector<std::int32_t> next(parity.offset.begin(), parity.offset.end() - 1);
+        for (std::size_t e = 0; e < pos.size(); ++e)
+          parity.cell[next[element::parity_octant(pos[e][0], pos[e][1], pos[e][2])]++] =
+              std::int32_t(e);
+        EXPECT_EQ(worst_sharing(lev.layout, parity), 2);
+        EXPECT_GT(colours.num_colours(), 8);
+      }
+    }
+  }
 }
 
 }  // namespace

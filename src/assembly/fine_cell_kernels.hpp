@@ -1,0 +1,156 @@
+// The fine cells' kernels (doc/theory.md, "Architecture", "Kernel bodies for a CUDA backend"):
+// functors over local cells for the loop layer (backend/loop.hpp). Their data, FineCellData, are
+// plain pointers into buffers that the backend owns (structure of arrays, one entry per local
+// cell unless noted), free of STL and host-only calls, so a CUDA backend launches these same
+// functors. FineCells (fine_cells.hpp) fills FineCellData from CellData and runs them.
+#pragma once
+
+#include <cstdint>
+
+#include "element/corotation.hpp"
+#include "element/fine_cell.hpp"
+#include "element/host_device.hpp"
+#include "element/reference.hpp"
+#include "element/trilinear.hpp"
+
+namespace hexcut::assembly {
+
+struct FineCellData {
+  const std::int32_t* corners = nullptr;         // 8 local copies per cell
+  const std::int32_t* kind = nullptr;            // index into kind_stiffness, or -1
+  const double* kind_stiffness = nullptr;        // 576 per kind: h (lambda K_lambda + mu K_mu)
+  const std::int32_t* own = nullptr;             // index into own_stiffness, or -1 (null: none)
+  const double* own_stiffness = nullptr;         // 576 per cell without a kind, formed once
+  const double* lambda = nullptr;                // [Pa]
+  const double* mu = nullptr;                    // [Pa]
+  const double* rho = nullptr;                   // [kg/m^3]
+  const double* rotation = nullptr;              // 9 per cell, row-major; null: identity
+  const element::ReferenceMatrices* reference = nullptr;  // K_lambda, K_mu, consistent mass
+  double h = 1.0;                                // lattice spacing [m]
+  double w_stiffness = 1.0, w_mass = 0.0;        // A_e = w_K R K R^T + w_M M_e
+  bool lumped_mass = true;
+  const double* mask = nullptr;                  // 3 per local copy: 1 free, 0 masked; null: none
+  const char* cell_masked = nullptr;             // per cell: has a masked DOF
+};
+
+/// The kernel view of cell e: its stiffness (the kind's, the cell's own formed once, or
+/// formed into `buffer`, 576 doubles, which must outlive the view), rotation and mass.
+HEXCUT_HD inline element::FineCell fine_cell(const FineCellData& d, std::int32_t e,
+                                             double* buffer) {
+  element::FineCell f;
+  if (d.kind[e] >= 0) {
+    f.K = d.kind_stiffness + 576 * std::int64_t(d.kind[e]);
+  } else if (d.own && d.own[e] >= 0) {
+    f.K = d.own_stiffness + 576 * std::int64_t(d.own[e]);
+  } else {
+    element::cell_stiffness(*d.reference, d.h, d.lambda[e], d.mu[e], buffer);
+    f.K = buffer;
+  }
+  f.R = d.rotation ? d.rotation + 9 * std::int64_t(e) : nullptr;
+  f.w_stiffness = d.w_stiffness;
+  f.mass = d.w_mass * d.rho[e] * d.h * d.h * d.h;
+  f.consistent_mass = d.lumped_mass ? nullptr : d.reference->mass;
+  return f;
+}
+
+HEXCUT_HD inline bool cell_is_masked(const FineCellData& d, std::int32_t e) {
+  return d.mask && d.cell_masked[e];
+}
+
+/// y += A_e x_e at the cell's corners; masked DOFs enter as 0 and receive nothing.
+struct FineApplyAdd {
+  FineCellData d;
+  const double* x;
+  double* y;
+  HEXCUT_HD void operator()(std::int32_t e) const {
+    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
+    double buffer[576], xe[24], ye[24];
+    element::gather_cell(x, corners, xe);
+    for (int i = 0; i < 24; ++i) ye[i] = 0.0;
+    const auto cell = fine_cell(d, e, buffer);
+    if (cell_is_masked(d, e)) {
+      for (int q = 0; q < 8; ++q)
+        for (int k = 0; k < 3; ++k) xe[3 * q + k] *= d.mask[3 * corners[q] + k];
+      element::fine_cell_apply_add(cell, xe, ye);
+      for (int q = 0; q < 8; ++q)
+        for (int k = 0; k < 3; ++k) ye[3 * q + k] *= d.mask[3 * corners[q] + k];
+    } else {
+      element::fine_cell_apply_add(cell, xe, ye);
+    }
+    element::scatter_add_cell(ye, corners, y);
+  }
+};
+
+/// y at the cell's corner of parity colour k += that corner's rows of A_e times x_e.
+struct FineColourRows {
+  FineCellData d;
+  const int* position;  // 3 per cell: lattice position
+  int colour;
+  const double* x;
+  double* y;
+  HEXCUT_HD void operator()(std::int32_t e) const {
+    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
+    const int q = element::corner_of_colour(position + 3 * std::int64_t(e), colour);
+    double buffer[576], xe[24], y3[3];
+    element::gather_cell(x, corners, xe);
+    const auto cell = fine_cell(d, e, buffer);
+    if (cell_is_masked(d, e)) {
+      for (int p = 0; p < 8; ++p)
+        for (int c = 0; c < 3; ++c) xe[3 * p + c] *= d.mask[3 * corners[p] + c];
+      element::fine_row_block(cell, q, xe, y3);
+      for (int c = 0; c < 3; ++c) y3[c] *= d.mask[3 * corners[q] + c];
+    } else {
+      element::fine_row_block(cell, q, xe, y3);
+    }
+    for (int c = 0; c < 3; ++c) y[3 * corners[q] + c] += y3[c];
+  }
+};
+
+/// diag += the masked 3x3 diagonal blocks of A_e at the cell's corners (9 per local copy).
+struct FineDiagonal {
+  FineCellData d;
+  double* diag;
+  HEXCUT_HD void operator()(std::int32_t e) const {
+    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
+    double buffer[576], block[9];
+    const auto cell = fine_cell(d, e, buffer);
+    for (int q = 0; q < 8; ++q) {
+      const auto v = corners[q];
+      element::fine_diagonal_block(cell, q, block);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          double a = block[3 * i + j];
+          if (d.mask) a *= d.mask[3 * v + i] * d.mask[3 * v + j];
+          diag[9 * v + 3 * i + j] += a;
+        }
+    }
+  }
+};
+
+/// The dense masked A_e = w_K R K R^T + w_M M_e of cell e (576 doubles, row-major).
+HEXCUT_HD inline void fine_cell_matrix(const FineCellData& d, std::int32_t e, double* A) {
+  double buffer[576];
+  const auto cell = fine_cell(d, e, buffer);
+  if (cell.R) {
+    element::rotate_element_matrix(cell.R, cell.K, A);
+    for (int i = 0; i < 576; ++i) A[i] *= d.w_stiffness;
+  } else {
+    for (int i = 0; i < 576; ++i) A[i] = d.w_stiffness * cell.K[i];
+  }
+  if (d.w_mass != 0.0) {
+    // M_e acts on each component separately; the reference stores the full 24x24 form.
+    if (d.lumped_mass) {
+      for (int i = 0; i < 24; ++i) A[25 * i] += cell.mass / 8.0;
+    } else {
+      for (int i = 0; i < 576; ++i) A[i] += cell.mass * d.reference->mass[i];
+    }
+  }
+  if (!cell_is_masked(d, e)) return;
+  const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
+  double m[24];
+  element::gather_cell(d.mask, corners, m);
+  for (int r = 0; r < 24; ++r)
+    for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
+}
+
+}  // namespace hexcut::assembly
