@@ -40,6 +40,10 @@ class CellOperator {
   /// The DOF layout whose local cells and copies this operator acts on.
   const topology::DofLayout& layout() const { return *layout_; }
   std::size_t num_cells() const { return layout_->cells.size(); }
+  /// The cells' 8 local copies each, contiguous (for the loop layer's kernels).
+  const std::int32_t* corners() const {
+    return layout_->cell_corners.empty() ? nullptr : layout_->cell_corners[0].data();
+  }
 
   /// y += A x; x, y: 3 values per local copy (owned, then ghosts). Contributions to ghost
   /// copies stay in y's ghost entries (sum them into their owners: apply()).

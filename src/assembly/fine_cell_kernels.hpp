@@ -57,73 +57,45 @@ HEXCUT_HD inline bool cell_is_masked(const FineCellData& d, std::int32_t e) {
   return d.mask && d.cell_masked[e];
 }
 
-/// y += A_e x_e at the cell's corners; masked DOFs enter as 0 and receive nothing.
-struct FineApplyAdd {
+/// The fine cells' per-cell operator for backend/restriction.hpp's kernels: A_e with the rows
+/// and columns of masked DOFs zeroed (masked DOFs enter as 0 and receive nothing).
+struct FineCellOps {
   FineCellData d;
-  const double* x;
-  double* y;
-  HEXCUT_HD void operator()(std::int32_t e) const {
-    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
-    double buffer[576], xe[24], ye[24];
-    element::gather_cell(x, corners, xe);
-    for (int i = 0; i < 24; ++i) ye[i] = 0.0;
+  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t* corners, double* xe,
+                           double* ye) const {
+    double buffer[576];
     const auto cell = fine_cell(d, e, buffer);
-    if (cell_is_masked(d, e)) {
-      for (int q = 0; q < 8; ++q)
-        for (int k = 0; k < 3; ++k) xe[3 * q + k] *= d.mask[3 * corners[q] + k];
+    if (!cell_is_masked(d, e)) {
       element::fine_cell_apply_add(cell, xe, ye);
-      for (int q = 0; q < 8; ++q)
-        for (int k = 0; k < 3; ++k) ye[3 * q + k] *= d.mask[3 * corners[q] + k];
-    } else {
-      element::fine_cell_apply_add(cell, xe, ye);
+      return;
     }
-    element::scatter_add_cell(ye, corners, y);
+    for (int q = 0; q < 8; ++q)
+      for (int k = 0; k < 3; ++k) xe[3 * q + k] *= d.mask[3 * corners[q] + k];
+    element::fine_cell_apply_add(cell, xe, ye);
+    for (int q = 0; q < 8; ++q)
+      for (int k = 0; k < 3; ++k) ye[3 * q + k] *= d.mask[3 * corners[q] + k];
   }
-};
-
-/// y at the cell's corner of parity colour k += that corner's rows of A_e times x_e.
-struct FineColourRows {
-  FineCellData d;
-  const int* position;  // 3 per cell: lattice position
-  int colour;
-  const double* x;
-  double* y;
-  HEXCUT_HD void operator()(std::int32_t e) const {
-    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
-    const int q = element::corner_of_colour(position + 3 * std::int64_t(e), colour);
-    double buffer[576], xe[24], y3[3];
-    element::gather_cell(x, corners, xe);
+  HEXCUT_HD void row_block(std::int32_t e, const std::int32_t* corners, int q, double* xe,
+                           double* y3) const {
+    double buffer[576];
     const auto cell = fine_cell(d, e, buffer);
-    if (cell_is_masked(d, e)) {
-      for (int p = 0; p < 8; ++p)
-        for (int c = 0; c < 3; ++c) xe[3 * p + c] *= d.mask[3 * corners[p] + c];
+    if (!cell_is_masked(d, e)) {
       element::fine_row_block(cell, q, xe, y3);
-      for (int c = 0; c < 3; ++c) y3[c] *= d.mask[3 * corners[q] + c];
-    } else {
-      element::fine_row_block(cell, q, xe, y3);
+      return;
     }
-    for (int c = 0; c < 3; ++c) y[3 * corners[q] + c] += y3[c];
+    for (int p = 0; p < 8; ++p)
+      for (int c = 0; c < 3; ++c) xe[3 * p + c] *= d.mask[3 * corners[p] + c];
+    element::fine_row_block(cell, q, xe, y3);
+    for (int c = 0; c < 3; ++c) y3[c] *= d.mask[3 * corners[q] + c];
   }
-};
-
-/// diag += the masked 3x3 diagonal blocks of A_e at the cell's corners (9 per local copy).
-struct FineDiagonal {
-  FineCellData d;
-  double* diag;
-  HEXCUT_HD void operator()(std::int32_t e) const {
-    const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
-    double buffer[576], block[9];
-    const auto cell = fine_cell(d, e, buffer);
-    for (int q = 0; q < 8; ++q) {
-      const auto v = corners[q];
-      element::fine_diagonal_block(cell, q, block);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-          double a = block[3 * i + j];
-          if (d.mask) a *= d.mask[3 * v + i] * d.mask[3 * v + j];
-          diag[9 * v + 3 * i + j] += a;
-        }
-    }
+  HEXCUT_HD void diagonal_block(std::int32_t e, const std::int32_t* corners, int q,
+                                double* D) const {
+    double buffer[576];
+    element::fine_diagonal_block(fine_cell(d, e, buffer), q, D);
+    if (!d.mask) return;
+    const auto v = corners[q];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) D[3 * i + j] *= d.mask[3 * v + i] * d.mask[3 * v + j];
   }
 };
 

@@ -1,6 +1,7 @@
 #include "assembly/fine_cells.hpp"
 
 #include "backend/loop.hpp"
+#include "backend/restriction.hpp"
 
 namespace hexcut::assembly {
 
@@ -45,7 +46,7 @@ void FineCells::set_mask(std::vector<double> mask_local) {
 FineCellData FineCells::data() const {
   const CellData& C = *cells_;
   FineCellData d;
-  d.corners = layout().cell_corners.empty() ? nullptr : layout().cell_corners[0].data();
+  d.corners = corners();
   d.kind = C.kind.data();
   d.kind_stiffness = kind_stiffness_;
   d.own = cache_ ? own_.data() : nullptr;
@@ -65,17 +66,20 @@ FineCellData FineCells::data() const {
 }
 
 void FineCells::apply_add(const double* x, double* y) const {
-  backend::for_each(std::int64_t(num_cells()), FineApplyAdd{data(), x, y});
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellApplyAdd<FineCellOps>{{data()}, corners(), x, y});
 }
 
 void FineCells::apply_add_colour(const CellPositions& position, int k, const double* x,
                                  double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();
-  backend::for_each(std::int64_t(num_cells()), FineColourRows{data(), p, k, x, y});
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellColourRows<FineCellOps>{{data()}, corners(), p, k, x, y});
 }
 
 void FineCells::add_diagonal_blocks(double* diag) const {
-  backend::for_each(std::int64_t(num_cells()), FineDiagonal{data(), diag});
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellDiagonal<FineCellOps>{{data()}, corners(), diag});
 }
 
 void FineCells::cell_matrix(std::size_t e, double* A) const {

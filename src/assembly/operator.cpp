@@ -20,39 +20,6 @@ const double* cell_stiffness(const CellData& cells, std::size_t e, double* buffe
   return buffer;
 }
 
-element::FineCell fine_cell_view(const CellData& C, std::size_t e, const OperatorWeights& w,
-                                 double* buffer) {
-  element::FineCell f;
-  f.K = cell_stiffness(C, e, buffer);
-  f.R = C.identity_rotations ? nullptr : &C.rotation[9 * e];
-  f.w_stiffness = w.stiffness;
-  f.mass = w.mass * C.rho[e] * C.h * C.h * C.h;
-  f.consistent_mass = w.lumped_mass ? nullptr : element::reference_matrices().mass;
-  return f;
-}
-
-void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A) {
-  const auto& ref = element::reference_matrices();
-  double buffer[element::kElementMatrixSize];
-  const double* K = cell_stiffness(cells, e, buffer);
-  if (cells.identity_rotations) {
-    for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] = w.stiffness * K[i];
-  } else {
-    element::rotate_element_matrix(&cells.rotation[9 * e], K, A);
-    for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] *= w.stiffness;
-  }
-  if (w.mass != 0.0) {
-    const double m = w.mass * cells.rho[e] * cells.h * cells.h * cells.h;
-    if (w.lumped_mass) {
-      for (int i = 0; i < element::kElementDofs; ++i) A[25 * i] += m / 8.0;
-    } else {
-      // M1 acts on each component separately: entry (3q+d, 3p+d) = mass[q][p] of the
-      // scalar mass; the reference stores the full 24x24 form.
-      for (int i = 0; i < element::kElementMatrixSize; ++i) A[i] += m * ref.mass[i];
-    }
-  }
-}
-
 CellData make_cell_data(const lattice::Lattice& L, const topology::DofLayout& D) {
   CellData C;
   C.h = L.spec.h;

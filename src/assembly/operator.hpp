@@ -46,14 +46,6 @@ struct OperatorWeights {
   bool lumped_mass = true;
 };
 
-/// The dense 24x24 operator of local cell e: w_K R^ K R^T + w_M M_e.
-void cell_operator(const CellData& cells, std::size_t e, const OperatorWeights& w, double* A);
-
-/// The kernel view of local cell e under weights w (K from its kind, or formed into
-/// `buffer`, 576 doubles, which must outlive the view).
-element::FineCell fine_cell_view(const CellData& cells, std::size_t e, const OperatorWeights& w,
-                                 double* buffer);
-
 /// Sets every rotation to the identity (linear elasticity).
 void set_identity_rotations(CellData& cells);
 

@@ -147,21 +147,33 @@ PetscErrorCode register_pc() {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode pc_get_options(PC pc, Options* options) {
+namespace {
+
+/// The data of a PC that must be of type PCHEXCUT.
+PetscErrorCode hexcut_data(PC pc, PCData** data) {
   PetscFunctionBeginUser;
   PetscBool match;
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCHEXCUT, &match));
   PetscCheck(match, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "the PC is not of type %s", PCHEXCUT);
-  *options = static_cast<PCData*>(pc->data)->options;
+  *data = static_cast<PCData*>(pc->data);
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+PetscErrorCode pc_get_options(PC pc, Options* options) {
+  PetscFunctionBeginUser;
+  PCData* d = nullptr;
+  PetscCall(hexcut_data(pc, &d));
+  *options = d->options;
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode pc_set_multigrid(PC pc, Multigrid* mg) {
   PetscFunctionBeginUser;
-  PetscBool match;
-  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCHEXCUT, &match));
-  PetscCheck(match, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "the PC is not of type %s", PCHEXCUT);
-  static_cast<PCData*>(pc->data)->mg = mg;
+  PCData* d = nullptr;
+  PetscCall(hexcut_data(pc, &d));
+  d->mg = mg;
   PetscFunctionReturn(0);
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "backend/loop.hpp"
+#include "backend/restriction.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -36,25 +37,21 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
   return rebuilt;
 }
 
-StoredCellData StoredCells::data() const {
-  StoredCellData d;
-  d.corners = layout().cell_corners.empty() ? nullptr : layout().cell_corners[0].data();
-  d.packed = packed_.data();
-  return d;
-}
-
 void StoredCells::apply_add(const double* x, double* y) const {
-  backend::for_each(std::int64_t(num_cells()), StoredApplyAdd{data(), x, y});
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellApplyAdd<StoredCellOps>{{packed_.data()}, corners(), x, y});
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k,
                                    const double* x, double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();
-  backend::for_each(std::int64_t(num_cells()), StoredColourRows{data(), p, k, x, y});
+  backend::for_each(std::int64_t(num_cells()), backend::CellColourRows<StoredCellOps>{
+                                                   {packed_.data()}, corners(), p, k, x, y});
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
-  backend::for_each(std::int64_t(num_cells()), StoredDiagonal{data(), diag});
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellDiagonal<StoredCellOps>{{packed_.data()}, corners(), diag});
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {

@@ -41,8 +41,6 @@ class StoredCells final : public assembly::CellOperator {
   void cell_matrix(std::size_t e, double* A) const override;
 
  private:
-  StoredCellData data() const;
-
   std::vector<double> packed_;  // 300 per local cell
   std::vector<char> dirty_;
 };
