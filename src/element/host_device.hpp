@@ -10,3 +10,19 @@
 #define HEXCUT_HD
 #endif
 #endif
+
+// Full unrolling of a short loop with a constant trip count (at most 8), for loops whose
+// unrolled indices let the compiler fold weights to constants and drop zero terms:
+// `#pragma unroll` in nvcc's device pass, GCC's `#pragma GCC unroll 8`, nothing elsewhere
+// (nvcc's host pass knows neither pragma in a way its host compiler accepts silently).
+#ifndef HEXCUT_UNROLL
+#if defined(__CUDA_ARCH__)
+#define HEXCUT_UNROLL _Pragma("unroll")
+#elif defined(__CUDACC__)
+#define HEXCUT_UNROLL
+#elif defined(__GNUC__) && !defined(__clang__)
+#define HEXCUT_UNROLL _Pragma("GCC unroll 8")
+#else
+#define HEXCUT_UNROLL
+#endif
+#endif

@@ -24,36 +24,52 @@ using element::child_weight;
 using element::corner_colour;
 using element::corner_of_colour;
 
-/// A_parent += W^T A_child W with W = kron(w, I3), w the 8x8 child weights of `octant`
-/// (A_child symmetric). w has 27 nonzeros of 64 (a fine corner lies on a coarse corner,
-/// edge, face or centre: 1, 2, 4 or 8 weights), so both products run over the nonzeros
-/// only, about 3.9k multiply-adds instead of 2 x 24^3. Both are written as sums of
-/// scaled contiguous rows (U = W^T A, then W^T U^T = (U W)^T = U W by symmetry), which
-/// the compiler vectorizes.
+/// A_parent += W^T A_child W with W = kron(w, I3), w(i, j) = child_weight(octant, i, j)
+/// the weight of coarse corner j at fine corner i (24x24 row-major; A_child need not be
+/// symmetric).
+///
+/// With both corner indices reflected by the octant, w(i, j) = w0(i ^ octant, j ^ octant),
+/// w0 the weights of octant 0, whose fine corner k sits at k/2 in the coarse cell:
+/// w0(k, K) = 2^-|k| when the bits of K are a subset of those of k, else 0 (27 nonzeros of
+/// 64). So the loops are the same for every octant, with constant weights once unrolled
+/// (zero terms dropped), and the octant only moves the rows and columns read and written.
+/// Per row (K, e) of the result, K a coarse corner in the reflected frame:
+///   t = sum_k w0(k, K) A_child[row (k ^ octant, e)]         (row of W^T A, 24 wide)
+///   A_parent[row (K ^ octant, e)][corner K' ^ octant] += sum_k' w0(k', K') t[corner k' ^ octant]
+/// About 3.9k multiply-adds (both products over the nonzeros only) with 24 doubles of
+/// scratch, registers or 192 bytes of stack per GPU thread (doc/theory.md, "Kernel bodies
+/// for a CUDA backend"), where two 24x24 intermediates took 9.6 KB.
 HEXCUT_HD inline void galerkin_accumulate(const double* A_child, int octant, double* A_parent) {
-  int nz_i[27], nz_j[27];
-  double nz_w[27];
-  int n = 0;
-  for (int i = 0; i < 8; ++i)
-    for (int j = 0; j < 8; ++j) {
-      const double w = child_weight(octant, i, j);
-      if (w != 0.0) nz_i[n] = i, nz_j[n] = j, nz_w[n++] = w;
-    }
-  double U[576], Ut[576];
-  for (int k = 0; k < 576; ++k) U[k] = 0.0;
-  for (int k = 0; k < n; ++k)
+  HEXCUT_UNROLL
+  for (int K = 0; K < 8; ++K)
     for (int e = 0; e < 3; ++e) {
-      const double* a = &A_child[24 * (3 * nz_i[k] + e)];
-      double* u = &U[24 * (3 * nz_j[k] + e)];
-      for (int c = 0; c < 24; ++c) u[c] += nz_w[k] * a[c];
-    }
-  for (int r = 0; r < 24; ++r)
-    for (int c = 0; c < 24; ++c) Ut[24 * c + r] = U[24 * r + c];
-  for (int k = 0; k < n; ++k)
-    for (int e = 0; e < 3; ++e) {
-      const double* u = &Ut[24 * (3 * nz_i[k] + e)];
-      double* a = &A_parent[24 * (3 * nz_j[k] + e)];
-      for (int c = 0; c < 24; ++c) a[c] += nz_w[k] * u[c];
+      double t[24];
+      for (int c = 0; c < 24; ++c) t[c] = 0.0;
+      HEXCUT_UNROLL
+      for (int k = 0; k < 8; ++k) {
+        const double w = child_weight(0, k, K);
+        if (w == 0.0) continue;
+        const double* a = A_child + 24 * (3 * (k ^ octant) + e);
+        for (int c = 0; c < 24; ++c) t[c] += w * a[c];
+      }
+      double* out = A_parent + 24 * (3 * (K ^ octant) + e);
+      HEXCUT_UNROLL
+      for (int Kc = 0; Kc < 8; ++Kc) {
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+        HEXCUT_UNROLL
+        for (int kc = 0; kc < 8; ++kc) {
+          const double w = child_weight(0, kc, Kc);
+          if (w == 0.0) continue;
+          const double* tk = t + 3 * (kc ^ octant);
+          s0 += w * tk[0];
+          s1 += w * tk[1];
+          s2 += w * tk[2];
+        }
+        double* o = out + 3 * (Kc ^ octant);
+        o[0] += s0;
+        o[1] += s1;
+        o[2] += s2;
+      }
     }
 }
 

@@ -1,0 +1,69 @@
+// galerkin_accumulate (multigrid/kernels.hpp) against a plain W^T A W.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "multigrid/kernels.hpp"
+
+namespace hexcut::multigrid {
+namespace {
+
+/// P += W^T A W with W = kron(w, I3), w(i, j) = child_weight(octant, i, j), all 24x24
+/// row-major, by the definition.
+void reference_accumulate(const double* A, int octant, double* P) {
+  std::vector<double> W(576, 0.0), WtA(576, 0.0);
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j)
+      for (int d = 0; d < 3; ++d) W[24 * (3 * i + d) + 3 * j + d] = element::child_weight(octant, i, j);
+  for (int r = 0; r < 24; ++r)
+    for (int c = 0; c < 24; ++c)
+      for (int k = 0; k < 24; ++k) WtA[24 * r + c] += W[24 * k + r] * A[24 * k + c];
+  for (int r = 0; r < 24; ++r)
+    for (int c = 0; c < 24; ++c) {
+      double s = 0.0;
+      for (int k = 0; k < 24; ++k) s += WtA[24 * r + k] * W[24 * k + c];
+      P[24 * r + c] += s;
+    }
+}
+
+TEST(GalerkinKernel, EqualsWtAWForEveryOctant) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    for (int octant = 0; octant < 8; ++octant) {
+      // Symmetric A (the multigrid's) and, every fourth trial, a general one.
+      const bool symmetric = trial % 4 != 3;
+      double A[576], P[576], Pref[576];
+      for (int r = 0; r < 24; ++r)
+        for (int c = 0; c < 24; ++c)
+          A[24 * r + c] = symmetric && c < r ? A[24 * c + r] : U(rng);
+      for (int k = 0; k < 576; ++k) P[k] = Pref[k] = U(rng);  // accumulates onto P
+      galerkin_accumulate(A, octant, P);
+      reference_accumulate(A, octant, Pref);
+      double err = 0.0;
+      for (int k = 0; k < 576; ++k) err = std::max(err, std::abs(P[k] - Pref[k]));
+      EXPECT_LT(err, 1e-14) << "octant " << octant << (symmetric ? "" : ", general A");
+    }
+  }
+}
+
+TEST(GalerkinKernel, ReflectedWeights) {
+  // The identity galerkin_accumulate relies on: the weights of octant o are those of
+  // octant 0 with both corner indices reflected, and octant 0's weight of fine corner k
+  // to coarse corner K is 2^-|k| when K's bits are a subset of k's, else 0.
+  for (int o = 0; o < 8; ++o)
+    for (int i = 0; i < 8; ++i)
+      for (int j = 0; j < 8; ++j)
+        EXPECT_EQ(element::child_weight(o, i, j), element::child_weight(0, i ^ o, j ^ o));
+  for (int k = 0; k < 8; ++k)
+    for (int K = 0; K < 8; ++K) {
+      const int bits = (k & 1) + ((k >> 1) & 1) + ((k >> 2) & 1);
+      EXPECT_EQ(element::child_weight(0, k, K), (K & ~k) ? 0.0 : std::ldexp(1.0, -bits));
+    }
+}
+
+}  // namespace
+}  // namespace hexcut::multigrid
