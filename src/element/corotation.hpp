@@ -13,16 +13,11 @@
 #pragma once
 
 #include "element/host_device.hpp"
+#include "element/kinematics.hpp"  // deformation_gradient_at_centre
+#include "element/polar.hpp"       // polar_rotation
 #include "element/reference.hpp"
 
 namespace hexcut::element {
-
-/// Rotation factor R of the polar decomposition F = R S, always a proper rotation
-/// (det R = +1). For det F <= 0 (inverted or flattened cell) the singular direction of
-/// the smallest singular value is flipped, i.e. R = U diag(1,1,-1) V^T from the SVD
-/// F = U Sigma V^T; this is the rotation closest to F among proper rotations. Returns the
-/// identity when F is (numerically) zero or not finite.
-void polar_rotation(const double F[9], double R[9]);
 
 /// out = R^T v per corner (local frame from world frame). out may alias v.
 HEXCUT_HD inline void rotate_blocks_transposed(const double R[9], const double* v24,
@@ -110,6 +105,16 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
   rotate_blocks(R, t, f24);
 }
 
+/// d = R^T (x + u) - x with R the polar rotation of the cell's own centre deformation
+/// gradient (as corotated_displacement; h: cell edge [m]).
+HEXCUT_HD inline void current_corotated_displacement(double h, const double* x24,
+                                                     const double* u24, double* d24) {
+  double F[9], R[9];
+  deformation_gradient_at_centre(u24, h, F);
+  polar_rotation(F, R);
+  corotated_displacement(R, x24, u24, d24);
+}
+
 /// What midpoint_force() found besides the force.
 struct MidpointForce {
   double energy0 = 0.0, energy1 = 0.0;               ///< strain energy 1/2 d^T K d at u0 and u1 [J]
@@ -133,8 +138,5 @@ struct MidpointForce {
 MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
                              const double* u0, const double* u1, double* f24);
 
-/// d = R^T (x + u) - x with R the polar rotation of the cell's own centre deformation
-/// gradient (as corotated_displacement; h: cell edge [m]).
-void current_corotated_displacement(double h, const double* x24, const double* u24, double* d24);
 
 }  // namespace hexcut::element

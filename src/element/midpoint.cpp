@@ -20,13 +20,6 @@ double dot24(const double* a, const double* b) {
 
 }  // namespace
 
-void current_corotated_displacement(double h, const double* x24, const double* u24, double* d24) {
-  double F[9], R[9];
-  deformation_gradient_at_centre(u24, h, F);
-  polar_rotation(F, R);
-  corotated_displacement(R, x24, u24, d24);
-}
-
 MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
                              const double* u0, const double* u1, double* f24) {
   MidpointForce out;

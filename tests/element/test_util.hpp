@@ -34,6 +34,14 @@ inline Mat3 random_rotation(std::mt19937_64& rng) {
   return q.toRotationMatrix();
 }
 
+/// A 3x3 matrix of independent standard normal entries (det < 0 half of the time).
+inline Mat3 random_matrix(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Mat3 F;
+  for (int k = 0; k < 9; ++k) F.data()[k] = n(rng);
+  return F;
+}
+
 inline Mat3 rotation_z(double angle) {
   return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()).toRotationMatrix();
 }
