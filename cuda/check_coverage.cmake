@@ -1,11 +1,13 @@
-# Test cuda_kernel_check_coverage: every HEXCUT_HD function of src/element/*.hpp and
-# src/multigrid/kernels.hpp is called in cuda/kernel_check.cu (as el::NAME( or mg::NAME(),
+# Test cuda_kernel_check_coverage: every HEXCUT_HD function of src/element/*.hpp,
+# src/multigrid/kernels.hpp and src/assembly/fine_cell_kernels.hpp is called in
+# cuda/kernel_check.cu (as el::NAME(, mg::NAME( or as::NAME(),
 # so that a new kernel body cannot escape the device-code check.
 #
 #   cmake -DSOURCE_DIR=<repository root> -P check_coverage.cmake
 
 file(GLOB headers ${SOURCE_DIR}/src/element/*.hpp)
-list(APPEND headers ${SOURCE_DIR}/src/multigrid/kernels.hpp)
+list(APPEND headers ${SOURCE_DIR}/src/multigrid/kernels.hpp
+  ${SOURCE_DIR}/src/assembly/fine_cell_kernels.hpp)
 file(READ ${SOURCE_DIR}/cuda/kernel_check.cu check)
 set(count 0)
 set(missing "")
@@ -17,7 +19,7 @@ foreach(header IN LISTS headers)
     string(REGEX MATCH "([A-Za-z0-9_]+)\\($" name "${declaration}")
     set(name "${CMAKE_MATCH_1}")
     math(EXPR count "${count} + 1")
-    if(NOT check MATCHES "(el|mg)::${name}\\(")
+    if(NOT check MATCHES "(el|mg|as)::${name}\\(")
       file(RELATIVE_PATH rel ${SOURCE_DIR} ${header})
       string(APPEND missing "  ${name} (${rel})\n")
     endif()

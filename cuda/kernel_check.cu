@@ -15,9 +15,14 @@
 #include "element/reference.hpp"
 #include "element/trilinear.hpp"
 #include "multigrid/kernels.hpp"
+#include "assembly/fine_cell_kernels.hpp"
+#include "backend/restriction.hpp"
+#include "multigrid/stored_cell_kernels.hpp"
 
 namespace el = hexcut::element;
 namespace mg = hexcut::multigrid;
+namespace as = hexcut::assembly;
+namespace be = hexcut::backend;
 
 namespace {
 
@@ -32,6 +37,28 @@ __device__ el::FineCell fine_cell(int e, const double* K, const double* R, doubl
 }
 
 }  // namespace
+
+// --- the loop layer's functors (backend/restriction.hpp around the per-cell operators of
+// assembly/fine_cell_kernels.hpp and multigrid/stored_cell_kernels.hpp): what a backend
+// launches, one thread per cell of a colour. Templates, so outside extern "C". ---
+
+template <class Kernel>
+__global__ void check_functor(Kernel k, int n) {
+  const int e = thread_index();
+  if (e < n) k(e);
+}
+template __global__ void check_functor<be::CellApplyAdd<as::FineCellOps>>(
+    be::CellApplyAdd<as::FineCellOps>, int);
+template __global__ void check_functor<be::CellColourRows<as::FineCellOps>>(
+    be::CellColourRows<as::FineCellOps>, int);
+template __global__ void check_functor<be::CellDiagonal<as::FineCellOps>>(
+    be::CellDiagonal<as::FineCellOps>, int);
+template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOps>>(
+    be::CellApplyAdd<mg::StoredCellOps>, int);
+template __global__ void check_functor<be::CellColourRows<mg::StoredCellOps>>(
+    be::CellColourRows<mg::StoredCellOps>, int);
+template __global__ void check_functor<be::CellDiagonal<mg::StoredCellOps>>(
+    be::CellDiagonal<mg::StoredCellOps>, int);
 
 // extern "C": readable names in the ptxas report.
 extern "C" {
@@ -266,6 +293,35 @@ __global__ void check_invert3(const double* a, double* inv, int* ok) {
 __global__ void check_corner_colour(const int* p, int* colour) {
   const int t = thread_index(), e = t / 8;
   colour[t] = mg::corner_colour(p + 3 * e, t % 8);
+}
+
+// --- assembly/fine_cell_kernels.hpp ---
+
+__global__ void check_fine_cell_matrix(as::FineCellData d, double* A) {
+  const int e = thread_index();
+  as::fine_cell_matrix(d, e, A + el::kElementMatrixSize * e);
+}
+
+__global__ void check_fine_cell_view(as::FineCellData d, double* out) {
+  const int e = thread_index();
+  const auto c = as::fine_cell(d, e);
+  out[e] = as::cell_is_masked(d, e) ? c.mass : c.k_lambda;
+}
+
+// --- element/fine_cell.hpp: the stiffness of a cell without a kind, not formed ---
+
+__global__ void check_stiffness_rows(const double* K_lambda, const double* K_mu,
+                                     const double* k, const double* x, double* y) {
+  const int t = thread_index(), e = t / 8, q = t % 8;
+  el::FineCell c{K_lambda, nullptr, 1.0, 0.0, nullptr, K_mu, k[2 * e], k[2 * e + 1]};
+  el::stiffness_rows(c, K_lambda + 24 * 3 * q, q, x + 24 * e, y + 3 * t);
+}
+
+__global__ void check_stiffness_apply_add(const double* K_lambda, const double* K_mu,
+                                          const double* k, const double* x, double* y) {
+  const int e = thread_index();
+  el::FineCell c{K_lambda, nullptr, 1.0, 0.0, nullptr, K_mu, k[2 * e], k[2 * e + 1]};
+  el::stiffness_apply_add(c, 1.0, x + 24 * e, y + 24 * e);
 }
 
 __global__ void check_corner_of_colour(const int* p, int* corner) {

@@ -34,17 +34,19 @@ struct FineCellData {
 };
 
 /// The kernel view of cell e: its stiffness (the kind's, the cell's own formed once, or
-/// formed into `buffer`, 576 doubles, which must outlive the view), rotation and mass.
-HEXCUT_HD inline element::FineCell fine_cell(const FineCellData& d, std::int32_t e,
-                                             double* buffer) {
+/// h (lambda K_lambda + mu K_mu) applied as two reference matrices, never formed: no 24x24
+/// scratch per cell), rotation and mass.
+HEXCUT_HD inline element::FineCell fine_cell(const FineCellData& d, std::int32_t e) {
   element::FineCell f;
   if (d.kind[e] >= 0) {
     f.K = d.kind_stiffness + 576 * std::int64_t(d.kind[e]);
   } else if (d.own && d.own[e] >= 0) {
     f.K = d.own_stiffness + 576 * std::int64_t(d.own[e]);
   } else {
-    element::cell_stiffness(*d.reference, d.h, d.lambda[e], d.mu[e], buffer);
-    f.K = buffer;
+    f.K = d.reference->k_lambda;
+    f.K_mu = d.reference->k_mu;
+    f.k_lambda = d.h * d.lambda[e];
+    f.k_mu = d.h * d.mu[e];
   }
   f.R = d.rotation ? d.rotation + 9 * std::int64_t(e) : nullptr;
   f.w_stiffness = d.w_stiffness;
@@ -63,8 +65,7 @@ struct FineCellOps {
   FineCellData d;
   HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t* corners, double* xe,
                            double* ye) const {
-    double buffer[576];
-    const auto cell = fine_cell(d, e, buffer);
+    const auto cell = fine_cell(d, e);
     if (!cell_is_masked(d, e)) {
       element::fine_cell_apply_add(cell, xe, ye);
       return;
@@ -77,8 +78,7 @@ struct FineCellOps {
   }
   HEXCUT_HD void row_block(std::int32_t e, const std::int32_t* corners, int q, double* xe,
                            double* y3) const {
-    double buffer[576];
-    const auto cell = fine_cell(d, e, buffer);
+    const auto cell = fine_cell(d, e);
     if (!cell_is_masked(d, e)) {
       element::fine_row_block(cell, q, xe, y3);
       return;
@@ -90,8 +90,7 @@ struct FineCellOps {
   }
   HEXCUT_HD void diagonal_block(std::int32_t e, const std::int32_t* corners, int q,
                                 double* D) const {
-    double buffer[576];
-    element::fine_diagonal_block(fine_cell(d, e, buffer), q, D);
+    element::fine_diagonal_block(fine_cell(d, e), q, D);
     if (!d.mask) return;
     const auto v = corners[q];
     for (int i = 0; i < 3; ++i)
@@ -101,13 +100,17 @@ struct FineCellOps {
 
 /// The dense masked A_e = w_K R K R^T + w_M M_e of cell e (576 doubles, row-major).
 HEXCUT_HD inline void fine_cell_matrix(const FineCellData& d, std::int32_t e, double* A) {
-  double buffer[576];
-  const auto cell = fine_cell(d, e, buffer);
+  const auto cell = fine_cell(d, e);
+  const double* K = cell.K;
+  if (cell.K_mu) {  // formed in A itself (rotate_element_matrix may work in place)
+    for (int i = 0; i < 576; ++i) A[i] = cell.k_lambda * cell.K[i] + cell.k_mu * cell.K_mu[i];
+    K = A;
+  }
   if (cell.R) {
-    element::rotate_element_matrix(cell.R, cell.K, A);
+    element::rotate_element_matrix(cell.R, K, A);
     for (int i = 0; i < 576; ++i) A[i] *= d.w_stiffness;
   } else {
-    for (int i = 0; i < 576; ++i) A[i] = d.w_stiffness * cell.K[i];
+    for (int i = 0; i < 576; ++i) A[i] = d.w_stiffness * K[i];
   }
   if (d.w_mass != 0.0) {
     // M_e acts on each component separately; the reference stores the full 24x24 form.

@@ -17,6 +17,11 @@ struct FineCell {
   double w_stiffness;
   double mass;
   const double* consistent_mass;
+  // A stiffness not formed (a cell without a shared kind, on a device where a 24x24
+  // scratch per thread is too much): K = k_lambda K + k_mu K_mu, with K = the reference
+  // K_lambda and K_mu set. Null K_mu: K is the stiffness itself.
+  const double* K_mu = nullptr;
+  double k_lambda = 1.0, k_mu = 0.0;
 };
 
 /// The 24 values (3 per corner) of a cell from a vector with 3 values per vertex copy;
@@ -51,6 +56,20 @@ HEXCUT_HD inline void three_rows(const double* K, const double* x24, double* y3)
   y3[2] = a2 + b2;
 }
 
+/// y3 = rows of corner q of the cell's unrotated stiffness times x24.
+HEXCUT_HD inline void stiffness_rows(const FineCell& c, const double* Kq, int q, const double* x24,
+                                     double* y3) {
+  three_rows(Kq, x24, y3);
+  if (!c.K_mu) return;
+  double m3[3];
+  three_rows(c.K_mu + 24 * 3 * q, x24, m3);
+  for (int e = 0; e < 3; ++e) y3[e] = c.k_lambda * y3[e] + c.k_mu * m3[e];
+}
+
+/// y24 += scale K x24 with the cell's unrotated stiffness K.
+HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const double* x24,
+                                          double* y24);
+
 /// y3 = rows of corner q of the fine cell's operator times x24.
 HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24, double* y3) {
   const double* Kq = c.K + 24 * 3 * q;
@@ -61,11 +80,11 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
       for (int i = 0; i < 3; ++i)
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
     double yl[3];
-    three_rows(Kq, xl, yl);
+    stiffness_rows(c, Kq, q, xl, yl);
     for (int i = 0; i < 3; ++i)
       y3[i] = c.w_stiffness * (R[3 * i] * yl[0] + R[3 * i + 1] * yl[1] + R[3 * i + 2] * yl[2]);
   } else {
-    three_rows(Kq, x24, y3);
+    stiffness_rows(c, Kq, q, x24, y3);
     for (int e = 0; e < 3; ++e) y3[e] *= c.w_stiffness;
   }
   if (c.mass != 0.0) {
@@ -92,6 +111,16 @@ HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const d
   for (int r = 0; r < 24; ++r) y24[r] += scale * acc[r];
 }
 
+HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const double* x24,
+                                          double* y24) {
+  if (!c.K_mu) {
+    symmetric_apply_add(c.K, scale, x24, y24);
+    return;
+  }
+  symmetric_apply_add(c.K, scale * c.k_lambda, x24, y24);
+  symmetric_apply_add(c.K_mu, scale * c.k_mu, x24, y24);
+}
+
 /// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
 /// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
 HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
@@ -101,13 +130,13 @@ HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, 
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    symmetric_apply_add(c.K, c.w_stiffness, xl, yl);
+    stiffness_apply_add(c, c.w_stiffness, xl, yl);
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         y24[3 * p + i] +=
             R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
   } else {
-    symmetric_apply_add(c.K, c.w_stiffness, x24, y24);
+    stiffness_apply_add(c, c.w_stiffness, x24, y24);
   }
   if (c.mass != 0.0) {
     if (!c.consistent_mass) {
@@ -123,7 +152,10 @@ HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, 
 HEXCUT_HD inline void fine_diagonal_block(const FineCell& c, int q, double* D) {
   double Kqq[9], T[9];
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) Kqq[3 * i + j] = c.K[24 * (3 * q + i) + 3 * q + j];
+    for (int j = 0; j < 3; ++j) {
+      const int k = 24 * (3 * q + i) + 3 * q + j;
+      Kqq[3 * i + j] = c.K_mu ? c.k_lambda * c.K[k] + c.k_mu * c.K_mu[k] : c.K[k];
+    }
   if (c.R) {
     const double* R = c.R;
     for (int i = 0; i < 3; ++i)  // T = R Kqq
