@@ -10,6 +10,7 @@
 #include "../analysis/fixture.hpp"
 #include "assembly/boundary.hpp"
 #include "backend/loop.hpp"
+#include "element/reference.hpp"
 #include "multigrid/gmg.hpp"
 
 namespace hexcut::testing {
@@ -513,6 +514,60 @@ TEST(Multigrid, CellColoursShareNoVertexCopyOnAnyLevel) {
       }
     }
   }
+}
+
+// Cells without a shared stiffness kind (per-cell E from an image: more distinct values
+// than kinds) are applied as h (lambda K_lambda + mu K_mu) from the two reference matrices,
+// never formed per visit (the loop layer's device-sized kernels), and formed once per update
+// in the multigrid. Every path must agree with the same cells given one kind each, whose
+// stiffness element::cell_stiffness forms: the assembled matrix, assembly::apply and the
+// multigrid's fine operator, with rotations and mass.
+TEST(Multigrid, CellsWithoutAKindMatchTheirFormedStiffness) {
+  const assembly::OperatorWeights w{1.3, 40.0, false};
+  Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 3");
+  set_rotations(job);
+  auto& C = job.model.cells;
+  for (std::size_t e = 0; e < C.lambda.size(); ++e) {  // distinct values per cell
+    C.lambda[e] *= 1.0 + 0.37 * std::sin(0.1 * double(e));
+    C.mu[e] *= 1.0 + 0.21 * std::cos(0.13 * double(e));
+  }
+  assembly::CellData formed = C;  // the reference: one kind per cell, formed here
+  formed.kind.resize(C.lambda.size());
+  formed.kind_stiffness.resize(C.lambda.size());
+  for (std::size_t e = 0; e < C.lambda.size(); ++e) {
+    formed.kind[e] = std::int32_t(e);
+    element::cell_stiffness(element::reference_matrices(), C.h, C.lambda[e], C.mu[e],
+                            formed.kind_stiffness[e].data());
+  }
+  C.kind.assign(C.lambda.size(), -1);
+  C.kind_stiffness.clear();
+  DM dm = job.model.dm;
+  Vec x, y_ref, y;
+  DMCreateGlobalVector(dm, &x);
+  VecDuplicate(x, &y_ref);
+  VecDuplicate(x, &y);
+  fill(x, 0.7);
+  const auto& D = job.model.layout;
+  check_petsc(assembly::apply(dm, D, formed, w, x, y_ref), "apply formed");
+  check_petsc(assembly::apply(dm, D, C, w, x, y), "apply");
+  EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "assembly::apply";
+  Mat A;
+  check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, D, &A), "create");
+  check_petsc(assembly::assemble_matrix(D, C, w, A), "assemble");
+  MatMult(A, x, y);
+  EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "assembled";
+  // The multigrid's fine operator is the constrained one: compare on free DOFs only.
+  auto* mg = job.sim->multigrid();
+  check_petsc(mg->update(C, w, job.model.boundary.constraints.rows), "update");
+  check_petsc(assembly::assemble_matrix(D, formed, w, A), "assemble formed");
+  check_petsc(assembly::constrain_matrix(job.model.boundary.constraints, A), "constrain");
+  MatMult(A, x, y_ref);
+  check_petsc(mg->apply_fine(x, y), "apply_fine");
+  EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "multigrid fine operator";
+  MatDestroy(&A);
+  VecDestroy(&x);
+  VecDestroy(&y);
+  VecDestroy(&y_ref);
 }
 
 }  // namespace
