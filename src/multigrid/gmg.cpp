@@ -543,8 +543,18 @@ PetscErrorCode Multigrid::build_coarsest() {
     // factorization's parallel scheduling (bunny_cuts on 2 ranks stopped with
     // DIVERGED_NANORINF or DIVERGED_INDEFINITE_PC in about 1 run of 8). Null-pivot
     // detection (ICNTL(24)) sets those components to zero instead; P x is unchanged.
-    PetscCall(set_option_if_unset("-gmg_coarse_mat_mumps_icntl_24", "1"));
+    // Set on this factor object (not in the options database), unless the user set it.
     PetscCall(KSPSetFromOptions(coarse_ksp_));
+    PetscCall(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_));
+    PetscBool factor = PETSC_FALSE, user = PETSC_FALSE;
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
+    PetscCall(PetscOptionsHasName(nullptr, "gmg_coarse_", "-mat_mumps_icntl_24", &user));
+    if (factor && !user) {
+      Mat F;
+      PetscCall(PCFactorSetUpMatSolverType(pc));
+      PetscCall(PCFactorGetMatrix(pc, &F));
+      PetscCall(MatMumpsSetIcntl(F, 24, 1));  // does nothing for other factorizations
+    }
   }
   PetscCall(KSPSetOperators(coarse_ksp_, coarse_matrix_, coarse_matrix_));
   PetscCall(KSPSetUp(coarse_ksp_));
