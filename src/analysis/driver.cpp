@@ -53,7 +53,7 @@ void Driver::begin() {
   if (!dynamic()) return;
   cut(0.0);
   sim_->initial_acceleration(state_);
-  write(state_, false);
+  write(state_, true, false);
 }
 
 void Driver::restore_cuts(const std::vector<lattice::CutLink>& links) {
@@ -69,11 +69,13 @@ void Driver::resume() {
   if (!dynamic()) require_supported(find_pieces(comm_, model_));
 }
 
-void Driver::write(const State& s, bool checkpoint) {
+void Driver::write(const State& s, bool step, bool checkpoint) {
   if (!out_) return;
-  PetscLogEventBegin(events().output, 0, 0, 0, 0);
-  out_->write_step(s, sim_->corotational());
-  PetscLogEventEnd(events().output, 0, 0, 0, 0);
+  if (step) {
+    PetscLogEventBegin(events().output, 0, 0, 0, 0);
+    out_->write_step(s, sim_->corotational());
+    PetscLogEventEnd(events().output, 0, 0, 0, 0);
+  }
   if (checkpoint) out_->write_checkpoint(s);
 }
 
@@ -97,10 +99,8 @@ bool Driver::run(std::int64_t max_steps) {
     const bool last = state_.step == total;
     const bool stop = max_steps > 0 && state_.step - first >= max_steps && !last;
     const int every = deck_.output.every, ce = deck_.output.checkpoint_every;
-    if (last || stop || state_.step % every == 0)
-      write(state_, last || stop || (ce > 0 && state_.step % ce == 0));
-    else if (ce > 0 && state_.step % ce == 0 && out_)
-      out_->write_checkpoint(state_);
+    write(state_, last || stop || state_.step % every == 0,
+          last || stop || (ce > 0 && state_.step % ce == 0));
     if (hooks_.on_step) hooks_.on_step(state_);
     if (stop) return false;
   }

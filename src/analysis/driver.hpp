@@ -81,7 +81,8 @@ class Driver {
   /// After the topology changed: a Simulation (solver, multigrid hierarchy) for the new DM
   /// and the output's tables for the new vertex copies.
   void follow_topology();
-  void write(const State& s, bool checkpoint);
+  /// The step's output and/or a checkpoint (nothing without an output).
+  void write(const State& s, bool step, bool checkpoint);
 
   MPI_Comm comm_;
   const deck::Deck& deck_;
