@@ -7,28 +7,20 @@ namespace hexcut::assembly {
 
 FineCells::FineCells(const topology::DofLayout& layout, const CellData& cells,
                      const OperatorWeights& w, bool cache)
-    : CellOperator(layout), cells_(&cells), cache_(cache) {
-  set_weights(w);
-}
-
-void FineCells::set_weights(const OperatorWeights& w) {
-  w_ = w;
-  const CellData& C = *cells_;
+    : CellOperator(layout), cells_(&cells), w_(w), cache_(cache) {
+  if (!cache_) return;
+  // The stiffness of cells without a kind (per-cell E), formed once here instead of at
+  // every visit.
   const std::size_t n = num_cells();
-  if (cache_) {
-    // The stiffness of cells without a kind (per-cell E), formed once per update instead
-    // of at every visit.
-    own_.assign(n, -1);
-    std::size_t count = 0;
-    for (std::size_t e = 0; e < n; ++e)
-      if (C.kind[e] < 0) own_[e] = std::int32_t(count++);
-    own_stiffness_.resize(576 * count);
-    for (std::size_t e = 0; e < n; ++e)
-      if (own_[e] >= 0)
-        element::cell_stiffness(element::reference_matrices(), C.h, C.lambda[e], C.mu[e],
-                                &own_stiffness_[576 * std::size_t(own_[e])]);
-  }
-  kind_stiffness_ = C.kind_stiffness.empty() ? nullptr : C.kind_stiffness[0].data();
+  own_.assign(n, -1);
+  std::size_t count = 0;
+  for (std::size_t e = 0; e < n; ++e)
+    if (cells.kind[e] < 0) own_[e] = std::int32_t(count++);
+  own_stiffness_.resize(576 * count);
+  for (std::size_t e = 0; e < n; ++e)
+    if (own_[e] >= 0)
+      element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e],
+                              cells.mu[e], &own_stiffness_[576 * std::size_t(own_[e])]);
 }
 
 void FineCells::set_mask(std::vector<double> mask_local) {
@@ -48,7 +40,7 @@ FineCellData FineCells::data() const {
   FineCellData d;
   d.corners = corners();
   d.kind = C.kind.data();
-  d.kind_stiffness = kind_stiffness_;
+  d.kind_stiffness = C.kind_stiffness.empty() ? nullptr : C.kind_stiffness[0].data();
   d.own = cache_ ? own_.data() : nullptr;
   d.own_stiffness = own_stiffness_.data();
   d.lambda = C.lambda.data();

@@ -18,16 +18,17 @@ class FineCells final : public CellOperator {
  public:
   /// `cells` (material data and rotations) must outlive the operator, which reads the
   /// rotations at each application. cache = false: the stiffness of a cell without a kind
-  /// (per-cell E) is formed at each visit, for operators applied a few times; cache = true:
-  /// formed once here and by set_weights (4.6 KB per such cell), for operators applied
+  /// (per-cell E) is applied from the reference matrices at each visit, for operators
+  /// applied a few times; cache = true: formed once here (4.6 KB per such cell), for
+  /// operators applied
   /// many times (the multigrid's fine level). The loops are the loop layer's
   /// (backend/loop.hpp) over the kernels of fine_cell_kernels.hpp.
   FineCells(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
             bool cache = false);
 
-  /// New weights, or the same after the cells' material data changed: the cached
-  /// stiffnesses are formed again.
-  void set_weights(const OperatorWeights& w);
+  /// New weights (the rotations are read at each application). Material data (lambda,
+  /// mu) are read at construction when cached: after changing them, make a new operator.
+  void set_weights(const OperatorWeights& w) { w_ = w; }
   /// Dirichlet mask: 1 free, 0 prescribed, 3 values per local copy (owned and ghosts).
   /// Empty: no mask.
   void set_mask(std::vector<double> mask_local);
@@ -47,7 +48,6 @@ class FineCells final : public CellOperator {
   const CellData* cells_;
   OperatorWeights w_;
   bool cache_;
-  const double* kind_stiffness_ = nullptr;  // CellData's, 576 per kind, contiguous
   std::vector<std::int32_t> own_;           // cache: per cell, index into own_stiffness_
   std::vector<double> own_stiffness_;       // cache: 576 per cell without a kind
   std::vector<double> mask_;                // per local DOF, or empty

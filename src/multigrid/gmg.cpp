@@ -239,9 +239,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   rebuilt_.assign(L, 0);
   auto& d0 = *data_[0];
   const auto& D0 = levels_[0].layout;
-  // The fine operator's kernel views are formed once per update rather than per cell
-  // visit; it always uses the current rotations, whatever is rebuilt above it.
-  if (!fine_op_ || fine_cells_ != &cells) {
+  // The fine operator always uses the current rotations, whatever is rebuilt above it. A
+  // full rebuild (also after invalidate(): material data may have changed) makes a new one,
+  // which forms the stiffness of cells without a kind once; rotation-only updates keep it.
+  if (!fine_op_ || fine_cells_ != &cells || full) {
     fine_op_ = std::make_unique<assembly::FineCells>(D0, cells, w, true);
     fine_cells_ = &cells;
     d0.op = fine_op_.get();
