@@ -123,7 +123,7 @@ HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const
 
 /// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
 /// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
-HEXCUT_HD inline void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
+HEXCUT_HD HEXCUT_INLINE void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
   if (c.R) {
     const double* R = c.R;
     double xl[24], yl[24] = {0};

@@ -26,3 +26,16 @@
 #define HEXCUT_UNROLL
 #endif
 #endif
+
+// Inlining a kernel body into its loop: a cell's data then stay in registers instead of
+// passing through a struct on the stack at every call (about 20 instructions per cell on
+// the fine operator, whose body alone is ~120).
+#ifndef HEXCUT_INLINE
+#if defined(__CUDACC__)
+#define HEXCUT_INLINE __forceinline__
+#elif defined(__GNUC__)
+#define HEXCUT_INLINE inline __attribute__((always_inline))
+#else
+#define HEXCUT_INLINE inline
+#endif
+#endif
