@@ -93,8 +93,9 @@ void Simulation::assemble(const assembly::OperatorWeights& w) {
     check_petsc(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()),
                 "KSPSetOperators");
   } else {
-    check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, w, A_), "assemble_matrix");
-    check_petsc(assembly::constrain_matrix(model_.boundary.constraints, A_), "constrain_matrix");
+    check_petsc(assembly::assemble_constrained_matrix(model_.dm, model_.layout, model_.cells, w,
+                                                      model_.boundary.constraints, A_),
+                "assemble_constrained_matrix");
     check_petsc(solve::set_operator(ksp_, deck_.solver, A_, model_.coordinates), "set_operator");
   }
   assembled_ = true;
@@ -178,9 +179,9 @@ void Simulation::initial_acceleration(State& s) {
   Mat M;
   KSP k;
   check_petsc(assembly::create_matrix(comm_, model_.copies, model_.layout, &M), "create_matrix");
-  check_petsc(assembly::assemble_matrix(model_.layout, model_.cells, mass_only, M),
-              "assemble_matrix");
-  check_petsc(assembly::constrain_matrix(model_.boundary.constraints, M), "constrain_matrix");
+  check_petsc(assembly::assemble_constrained_matrix(model_.dm, model_.layout, model_.cells,
+                                                    mass_only, model_.boundary.constraints, M),
+              "assemble_constrained_matrix");
   // Prescribed rows: zero initial acceleration.
   for (PetscInt row : model_.boundary.constraints.rows)
     check_petsc(VecSetValue(r, row, 0.0, INSERT_VALUES), "VecSetValue");

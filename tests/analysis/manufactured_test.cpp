@@ -112,8 +112,9 @@ Errors solve_and_measure(int n) {
   Mat A;
   KSP ksp;
   check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, D, &A), "create_matrix");
-  check_petsc(assembly::assemble_matrix(D, M.cells, {1.0, 0.0, true}, A), "assemble");
-  check_petsc(assembly::constrain_matrix(M.boundary.constraints, A), "constrain");
+  check_petsc(assembly::assemble_constrained_matrix(M.dm, D, M.cells, {1.0, 0.0, true},
+                                                    M.boundary.constraints, A),
+              "assemble");
   check_petsc(assembly::constrain_rhs(M.dm, D, M.cells, {1.0, 0.0, true}, M.boundary.constraints,
                                       0.0, 1.0, b),
               "rhs");
