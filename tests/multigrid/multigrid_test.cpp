@@ -84,10 +84,8 @@ struct Operators {
     set_rotations(job);
     check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.layout, &A),
                 "create");
-    check_petsc(
-        assembly::assemble_constrained_matrix(job.model.dm, job.model.layout, job.model.cells, w,
-                                              job.model.boundary.constraints, A),
-        "assemble");
+    HEXCUT_CALL(assembly::assemble_constrained_matrix(
+        job.model.dm, job.model.layout, job.model.cells, w, job.model.boundary.constraints, A));
     job.sim->multigrid()->update(job.model.cells, w, job.model.boundary.constraints.rows);
   }
   ~Operators() { MatDestroy(&A); }
@@ -125,11 +123,10 @@ TEST_P(EveryWeighting, ConstrainedMatrixIsTheEliminationOfTheAssembledOperator) 
   Operators ops(kBlock, kWeights[GetParam()]);
   const auto& M = ops.job.model;
   Mat B;
-  check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, M.layout, &B), "create");
-  check_petsc(assembly::assemble_matrix(M.layout, M.cells, ops.w, B), "assemble");
+  HEXCUT_CALL(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, M.layout, &B));
+  HEXCUT_CALL(assembly::assemble_matrix(M.layout, M.cells, ops.w, B));
   const auto& rows = M.boundary.constraints.rows;
-  check_petsc(MatZeroRowsColumns(B, PetscInt(rows.size()), rows.data(), 1.0, nullptr, nullptr),
-              "MatZeroRowsColumns");
+  HEXCUT_CALL(MatZeroRowsColumns(B, PetscInt(rows.size()), rows.data(), 1.0, nullptr, nullptr));
   PetscInt lo, hi;
   MatGetOwnershipRange(B, &lo, &hi);
   std::int64_t differ = 0, entries = 0;
@@ -260,10 +257,9 @@ TEST(Multigrid, RebuildToleranceKeepsCoarseBlocksButNotTheFineOperator) {
   EXPECT_EQ(mg->rebuilt_cells(1), 0);
   EXPECT_EQ(mg->rebuilt_cells(2), 0);
   // The fine operator is the current one: equal to the matrix assembled now.
-  check_petsc(assembly::assemble_constrained_matrix(ops.job.model.dm, ops.job.model.layout,
+  HEXCUT_CALL(assembly::assemble_constrained_matrix(ops.job.model.dm, ops.job.model.layout,
                                                     ops.job.model.cells, w,
-                                                    ops.job.model.boundary.constraints, ops.A),
-              "assemble");
+                                                    ops.job.model.boundary.constraints, ops.A));
   EXPECT_LT(matrix_free_difference(ops), 1e-12);
 }
 
@@ -599,9 +595,8 @@ TEST(Multigrid, CellsWithoutAKindMatchTheirFormedStiffness) {
   // The multigrid's fine operator is the constrained one: compare on free DOFs only.
   auto* mg = job.sim->multigrid();
   check_petsc(mg->update(C, w, job.model.boundary.constraints.rows), "update");
-  check_petsc(
-      assembly::assemble_constrained_matrix(dm, D, formed, w, job.model.boundary.constraints, A),
-      "assemble formed");
+  HEXCUT_CALL(
+      assembly::assemble_constrained_matrix(dm, D, formed, w, job.model.boundary.constraints, A));
   MatMult(A, x, y_ref);
   check_petsc(mg->apply_fine(x, y), "apply_fine");
   EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "multigrid fine operator";
