@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "analysis/model.hpp"
+#include "assembly/boundary.hpp"
 #include "assembly/operator.hpp"
 #include "common/petsc_check.hpp"
 #include "deck/deck.hpp"
@@ -57,8 +58,8 @@ int main(int argc, char** argv) {
     const assembly::OperatorWeights w{1.0, 0.0, true};
     Mat A;
     PetscCall(assembly::create_matrix(PETSC_COMM_WORLD, model.copies, model.layout, &A));
-    PetscCall(assembly::assemble_matrix(model.layout, model.cells, w, A));
-    PetscCall(assembly::constrain_matrix(model.boundary.constraints, A));
+    PetscCall(assembly::assemble_constrained_matrix(model.dm, model.layout, model.cells, w,
+                                                    model.boundary.constraints, A));
     // The default (automatic) hierarchy: only its fine-level operator is timed, but a
     // one-level hierarchy would factor the whole fine matrix as its coarsest level.
     multigrid::Options opt;

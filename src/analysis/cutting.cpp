@@ -8,9 +8,7 @@
 
 #include "analysis/events.hpp"
 #include "assembly/operator.hpp"
-#include "common/errors.hpp"
 #include "common/mpi_gather.hpp"
-#include "common/petsc_check.hpp"
 #include "cut/link_cut.hpp"
 #include "topology/union_find.hpp"
 
@@ -25,12 +23,15 @@ void Cutter::skip_due(double t) {
   while (next_ < events_.size() && events_[next_].time <= t + 1e-12 * (std::abs(t) + 1.0)) ++next_;
 }
 
-CutReport Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u) {
-  CutReport r;
+PetscErrorCode Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u, CutReport* report) {
+  PetscFunctionBeginUser;
+  CutReport& r = *report;
+  r = CutReport{};
   const double due = t + 1e-12 * (std::abs(t) + 1.0);  // round-off in accumulated step times
-  if (next_ >= events_.size() || events_[next_].time > due) return r;
-  PetscLogEventBegin(events().cut_links, 0, 0, 0, 0);
-  const auto centres = deformed_cell_centres(comm, model, u);
+  if (next_ >= events_.size() || events_[next_].time > due) PetscFunctionReturn(0);
+  EventScope scope(events().cut_links);
+  std::vector<Eigen::Vector3d> centres;
+  PetscCall(deformed_cell_centres(comm, model, u, &centres));
   tree_->refit(model.lattice, centres);
   // Every rank holds the whole lattice and all centres and runs the same deterministic
   // search, so the links stay identical everywhere without exchanging hits.
@@ -42,21 +43,24 @@ CutReport Cutter::cut_due(MPI_Comm comm, double t, Model& model, Vec u) {
     r.links += std::int64_t(links.size());
     ++r.events;
   }
-  PetscLogEventEnd(events().cut_links, 0, 0, 0, 0);
-  return r;
+  PetscFunctionReturn(0);
 }
 
-std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& M, Vec u) {
+PetscErrorCode deformed_cell_centres(MPI_Comm comm, const Model& M, Vec u,
+                                     std::vector<Eigen::Vector3d>* out) {
+  PetscFunctionBeginUser;
   const auto& L = M.lattice;
   const auto& D = M.layout;
-  std::vector<Eigen::Vector3d> centres(L.num_cells());
+  auto& centres = *out;
+  centres.resize(L.num_cells());
   for (std::int32_t c = 0; c < L.num_cells(); ++c)
     centres[c] = L.spec.cell_centre(L.ijk[c][0], L.ijk[c][1], L.ijk[c][2]);
-  if (!u) return centres;
+  if (!u) PetscFunctionReturn(0);
   // Each rank moves its own cells, then all ranks exchange the displacements.
   std::vector<std::array<double, 3>> mine(D.cells.size(), {0.0, 0.0, 0.0});
   {
-    const assembly::LocalValues ul(M.dm, u);
+    assembly::LocalValues ul;
+    PetscCall(ul.get(M.dm, u));
     const PetscScalar* a = ul.data();
     for (std::size_t e = 0; e < D.cells.size(); ++e)
       for (int q = 0; q < 8; ++q)
@@ -65,7 +69,7 @@ std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& M
   const auto ids = allgather(comm, D.cells);
   const auto disp = allgather(comm, mine);
   for (std::size_t k = 0; k < ids.size(); ++k) centres[ids[k]] += Eigen::Vector3d(disp[k].data());
-  return centres;
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M, State* s) {
@@ -117,16 +121,19 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M
   PetscFunctionReturn(0);
 }
 
-CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t, Model* M,
-                         State* s, const std::function<void()>& follow_topology) {
-  const auto r = cutter.cut_due(comm, t, *M, s->u);
+PetscErrorCode apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
+                              Model* M, State* s, CutReport* report,
+                              const std::function<PetscErrorCode()>& follow_topology) {
+  PetscFunctionBeginUser;
+  CutReport r;
+  PetscCall(cutter.cut_due(comm, t, *M, s->u, &r));
+  if (report) *report = r;
   if (r.links > 0) {
-    PetscLogEventBegin(events().rebuild, 0, 0, 0, 0);
-    check_petsc(rebuild_after_cut(comm, deck, M, s), "rebuild_after_cut");
-    if (follow_topology) follow_topology();
-    PetscLogEventEnd(events().rebuild, 0, 0, 0, 0);
+    EventScope scope(events().rebuild);
+    PetscCall(rebuild_after_cut(comm, deck, M, s));
+    if (follow_topology) PetscCall(follow_topology());
   }
-  return r;
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode restore_cuts(MPI_Comm comm, const deck::Deck& deck,
@@ -280,16 +287,28 @@ std::string describe(const Piece& p) {
   return out;
 }
 
-void require_supported(const std::vector<Piece>& pieces) {
-  std::string bad;
-  for (const auto& p : pieces)
-    if (!p.free_modes.empty()) bad += "\n  " + describe(p);
-  if (!bad.empty())
-    throw SolverError(
-        "static analysis with a piece its supports do not hold (it can move rigidly, so its "
-        "stiffness is singular; add supports in boundary.fixed, or run a dynamic "
-        "analysis):" +
-        bad);
+PetscErrorCode require_supported(MPI_Comm comm, const std::vector<Piece>& pieces) {
+  PetscFunctionBeginUser;
+  std::string msg =
+      "static analysis with a piece its supports do not hold (it can move rigidly, so its "
+      "stiffness is singular; add supports in boundary.fixed, or run a dynamic "
+      "analysis):";
+  // PETSc keeps the first 1023 characters of an error's message: the pieces past that are
+  // counted, not cut off in the middle of a line.
+  constexpr std::size_t kMaxMessage = 960;
+  int free = 0, unlisted = 0;
+  for (const auto& p : pieces) {
+    if (p.free_modes.empty()) continue;
+    ++free;
+    const std::string line = "\n  " + describe(p);
+    if (unlisted == 0 && msg.size() + line.size() <= kMaxMessage)
+      msg += line;
+    else
+      ++unlisted;
+  }
+  if (unlisted > 0) msg += "\n  ... and " + std::to_string(unlisted) + " more such piece(s)";
+  if (free > 0) SETERRQ(comm, PETSC_ERR_NOT_CONVERGED, "%s", msg.c_str());
+  PetscFunctionReturn(0);
 }
 
 }  // namespace hexcut::analysis

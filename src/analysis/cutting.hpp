@@ -32,9 +32,9 @@ class Cutter {
   double next_time() const { return events_[next_].time; }
   /// Applies every not yet applied event with time <= t to model.lattice's links, in the
   /// configuration of the displacement u (global vector of the model's DM; null =
-  /// reference configuration). Collective. Topology is NOT rebuilt: call
-  /// rebuild_after_cut when report.links > 0.
-  CutReport cut_due(MPI_Comm comm, double t, Model& model, Vec u);
+  /// reference configuration), and says what it did in `report`. Collective. Topology is
+  /// NOT rebuilt: call rebuild_after_cut when report->links > 0.
+  PetscErrorCode cut_due(MPI_Comm comm, double t, Model& model, Vec u, CutReport* report);
   /// Skips (without cutting) the events with time <= t (restart bookkeeping).
   void skip_due(double t);
 
@@ -46,7 +46,8 @@ class Cutter {
 
 /// Cell centres of every cell (all ranks get all of them), moved by the mean of their
 /// corners' displacement u (null: reference). Collective.
-std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& model, Vec u);
+PetscErrorCode deformed_cell_centres(MPI_Comm comm, const Model& model, Vec u,
+                                     std::vector<Eigen::Vector3d>* centres);
 
 /// Rebuilds the model's topology after its links changed (the cells keep their ranks)
 /// and carries the state over: every new vertex copy takes u, v, a of the old copy it
@@ -54,12 +55,12 @@ std::vector<Eigen::Vector3d> deformed_cell_centres(MPI_Comm comm, const Model& m
 PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* model, State* state);
 
 /// Cutter::cut_due in the configuration of state->u, then, when links were cut
-/// (report.links > 0), rebuild_after_cut and `follow_topology`, which rebuilds what
+/// (report->links > 0), rebuild_after_cut and `follow_topology`, which rebuilds what
 /// depends on the DM (the Simulation, ResultOutput::topology_changed). Both run inside
-/// one hexcutRebuild event, logged once per cut. Collective.
-CutReport apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
-                         Model* model, State* state,
-                         const std::function<void()>& follow_topology = {});
+/// one hexcutRebuild event, logged once per cut. `report` may be null. Collective.
+PetscErrorCode apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cutter, double t,
+                              Model* model, State* state, CutReport* report = nullptr,
+                              const std::function<PetscErrorCode()>& follow_topology = {});
 
 /// Restart: applies cut links read from a checkpoint (in their cutting order) to the
 /// uncut model and rebuilds its topology; the model's DM is replaced, so create the state
@@ -89,8 +90,10 @@ std::string free_rigid_modes(const Eigen::Matrix<double, 6, 6>& G, const Eigen::
 /// "piece 2: 640 cells, box [0.1, 0, 0] - [0.5, 0.1, 0.1] m, unsupported", or
 /// "..., supported; free: translation x, y; rotation about z".
 std::string describe(const Piece& p);
-/// Throws SolverError naming every piece whose supports leave a rigid motion free
-/// (a static stiffness is then singular: solvers return huge or arbitrary displacements).
-void require_supported(const std::vector<Piece>& pieces);
+/// PETSC_ERR_NOT_CONVERGED (a solver failure, exit 3) on `comm` naming every piece whose
+/// supports leave a rigid motion free (a static stiffness is then singular: solvers return
+/// huge or arbitrary displacements); past what PETSc keeps of a message, the rest are
+/// counted. The pieces are those of find_pieces on `comm`.
+PetscErrorCode require_supported(MPI_Comm comm, const std::vector<Piece>& pieces);
 
 }  // namespace hexcut::analysis

@@ -3,7 +3,6 @@
 #include <limits>
 
 #include "analysis/events.hpp"
-#include "common/petsc_check.hpp"
 
 namespace hexcut::analysis {
 
@@ -16,9 +15,7 @@ Driver::Driver(MPI_Comm comm, const deck::Deck& deck, Model& model, State& state
       sim_(sim),
       hooks_(std::move(hooks)),
       cutter_(deck, model.lattice),
-      energy_(deck.analysis.energy_tolerance) {
-  if (!sim_) sim_ = std::make_unique<Simulation>(comm, model, deck);
-}
+      energy_(comm, deck.analysis.energy_tolerance) {}
 
 bool Driver::dynamic() const {
   return deck_.analysis.type == deck::Analysis::Type::dynamic;
@@ -28,59 +25,74 @@ std::int64_t Driver::total_steps() const {
   return dynamic() ? deck_.analysis.steps : deck_.analysis.load_steps;
 }
 
-void Driver::follow_topology() {
+PetscErrorCode Driver::follow_topology() {
+  PetscFunctionBeginUser;
   sim_.reset();
-  sim_ = std::make_unique<Simulation>(comm_, model_, deck_);
-  if (out_) out_->topology_changed();
+  PetscCall(Simulation::create(comm_, model_, deck_, &sim_));
+  if (out_) PetscCall(out_->topology_changed());
+  PetscFunctionReturn(0);
 }
 
-CutReport Driver::cut(double t) {
-  const auto r =
-      apply_due_cuts(comm_, deck_, cutter_, t, &model_, &state_, [this] { follow_topology(); });
+PetscErrorCode Driver::cut(double t) {
+  PetscFunctionBeginUser;
+  CutReport r;
+  PetscCall(apply_due_cuts(comm_, deck_, cutter_, t, &model_, &state_, &r,
+                           [this] { return follow_topology(); }));
   if (r.events > 0 && hooks_.on_cuts) hooks_.on_cuts(r, t);
-  return r;
+  PetscFunctionReturn(0);
 }
 
-void Driver::prepare() {
-  if (dynamic()) return;
+PetscErrorCode Driver::prepare() {
+  PetscFunctionBeginUser;
+  if (dynamic()) PetscFunctionReturn(0);
   // Static analyses: every cut acts on the undeformed body before the solve, and every
   // piece must then be held by the supports (a static stiffness is singular otherwise).
-  cut(std::numeric_limits<double>::infinity());
-  require_supported(find_pieces(comm_, model_));
+  PetscCall(cut(std::numeric_limits<double>::infinity()));
+  PetscCall(require_supported(comm_, find_pieces(comm_, model_)));
+  PetscFunctionReturn(0);
 }
 
-void Driver::begin() {
-  if (!dynamic()) return;
-  cut(0.0);
-  sim_->initial_acceleration(state_);
-  write(state_, true, false);
+PetscErrorCode Driver::begin() {
+  PetscFunctionBeginUser;
+  if (!dynamic()) PetscFunctionReturn(0);
+  PetscCall(cut(0.0));
+  PetscCall(sim_->initial_acceleration(state_));
+  PetscCall(write(state_, true, false));
+  PetscFunctionReturn(0);
 }
 
-void Driver::restore_cuts(const std::vector<lattice::CutLink>& links) {
-  if (links.empty()) return;
-  check_petsc(destroy_state(&state_), "destroy_state");
-  check_petsc(analysis::restore_cuts(comm_, deck_, links, &model_), "restore_cuts");
-  check_petsc(create_state(model_.dm, &state_), "create_state");
-  follow_topology();
+PetscErrorCode Driver::restore_cuts(const std::vector<lattice::CutLink>& links) {
+  PetscFunctionBeginUser;
+  if (links.empty()) PetscFunctionReturn(0);
+  PetscCall(destroy_state(&state_));
+  PetscCall(analysis::restore_cuts(comm_, deck_, links, &model_));
+  PetscCall(create_state(model_.dm, &state_));
+  PetscCall(follow_topology());
+  PetscFunctionReturn(0);
 }
 
-void Driver::resume() {
+PetscErrorCode Driver::resume() {
+  PetscFunctionBeginUser;
   cutter_.skip_due(state_.time);
-  if (!dynamic()) require_supported(find_pieces(comm_, model_));
+  if (!dynamic()) PetscCall(require_supported(comm_, find_pieces(comm_, model_)));
+  PetscFunctionReturn(0);
 }
 
-void Driver::write(const State& s, bool step, bool checkpoint) {
-  if (!out_) return;
+PetscErrorCode Driver::write(const State& s, bool step, bool checkpoint) {
+  PetscFunctionBeginUser;
+  if (!out_) PetscFunctionReturn(0);
   if (step) {
-    PetscLogEventBegin(events().output, 0, 0, 0, 0);
-    out_->write_step(s, sim_->corotational());
-    PetscLogEventEnd(events().output, 0, 0, 0, 0);
+    EventScope scope(events().output);
+    PetscCall(out_->write_step(s, sim_->corotational()));
   }
-  if (checkpoint) out_->write_checkpoint(s);
+  if (checkpoint) PetscCall(out_->write_checkpoint(s));
+  PetscFunctionReturn(0);
 }
 
-bool Driver::run(std::int64_t max_steps) {
+PetscErrorCode Driver::run(std::int64_t max_steps, bool* reached_end) {
+  PetscFunctionBeginUser;
   const std::int64_t total = total_steps(), first = state_.step;
+  if (reached_end) *reached_end = false;
   auto on_solve = [this](const State& s, const solve::SolveRecord& r) {
     if (out_) out_->record_solve(s.step, s.time, r);
     if (hooks_.on_solve) hooks_.on_solve(s, r);
@@ -89,22 +101,25 @@ bool Driver::run(std::int64_t max_steps) {
     if (dynamic()) {
       // Cuts due by the end of this step act on the configuration at its start; then the
       // operator, preconditioner and output tables follow the new topology.
-      if (cutter_.pending()) cut(double(state_.step + 1) * deck_.analysis.dt);
-      const auto rec = sim_->newmark_step(state_);
-      energy_.add(sim_->last_step_energy(), state_.step, state_.time);  // exit 3 if created
+      if (cutter_.pending()) PetscCall(cut(double(state_.step + 1) * deck_.analysis.dt));
+      solve::SolveRecord rec;
+      PetscCall(sim_->newmark_step(state_, &rec));
+      // Exit 3 when the step created energy.
+      PetscCall(energy_.add(sim_->last_step_energy(), state_.step, state_.time));
       on_solve(state_, rec);
     } else {
-      sim_->static_step(state_, on_solve);
+      PetscCall(sim_->static_step(state_, on_solve));
     }
     const bool last = state_.step == total;
     const bool stop = max_steps > 0 && state_.step - first >= max_steps && !last;
     const int every = deck_.output.every, ce = deck_.output.checkpoint_every;
-    write(state_, last || stop || state_.step % every == 0,
-          last || stop || (ce > 0 && state_.step % ce == 0));
+    PetscCall(write(state_, last || stop || state_.step % every == 0,
+                    last || stop || (ce > 0 && state_.step % ce == 0)));
     if (hooks_.on_step) hooks_.on_step(state_);
-    if (stop) return false;
+    if (stop) PetscFunctionReturn(0);
   }
-  return true;
+  if (reached_end) *reached_end = true;
+  PetscFunctionReturn(0);
 }
 
 }  // namespace hexcut::analysis

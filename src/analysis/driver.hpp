@@ -34,11 +34,13 @@ struct DriverHooks {
   std::function<void(const CutReport&, double t)> on_cuts;
 };
 
+/// The driver's members that do PETSc work return a PetscErrorCode (common/petsc_check.hpp);
+/// its constructor does none.
 class Driver {
  public:
   /// The analysis of `model` from `state` (both must outlive the driver). `sim` holds the
-  /// analysis' Simulation: created here when empty, replaced after every topology change
-  /// (so a caller's pointer to it stays the one to use).
+  /// analysis' Simulation (Simulation::create): the driver replaces it after every topology
+  /// change (so a caller's pointer to it stays the one to use).
   Driver(MPI_Comm comm, const deck::Deck& deck, Model& model, State& state,
          std::unique_ptr<Simulation>& sim, DriverHooks hooks = {});
 
@@ -48,25 +50,26 @@ class Driver {
   void set_output(ResultOutput* out) { out_ = out; }
 
   /// Before any output exists: a static analysis applies every cut event to the undeformed
-  /// body and requires every piece held by its supports (SolverError otherwise); a dynamic
-  /// one does nothing. Collective.
-  void prepare();
+  /// body and requires every piece held by its supports (PETSC_ERR_NOT_CONVERGED
+  /// otherwise); a dynamic one does nothing. Collective.
+  PetscErrorCode prepare();
   /// A new dynamic run, after set_output: the cuts due at t = 0, the initial acceleration
   /// and the output of the initial state. Nothing for static runs. Collective.
-  void begin();
+  PetscErrorCode begin();
   /// A restart: the cut links of the checkpoint (in their order) are applied to the uncut
   /// model, the state is re-created on the new DM and the Simulation and output follow.
   /// Read the checkpoint into the state afterwards, then call resume(). Collective.
-  void restore_cuts(const std::vector<lattice::CutLink>& links);
+  PetscErrorCode restore_cuts(const std::vector<lattice::CutLink>& links);
   /// After the checkpoint was read: the cut events up to the state's time count as
   /// applied; static bodies must be held by their supports. Collective.
-  void resume();
+  PetscErrorCode resume();
 
   /// Takes steps from state.step to the analysis' end, at most `max_steps` of them
-  /// (0: no limit). Returns true when the analysis reached its end, false when it stopped
-  /// at the limit (the last step taken is written and checkpointed). Throws SolverError
-  /// (exit 3) when a solve fails or a dynamic step creates energy; what was written stays.
-  bool run(std::int64_t max_steps = 0);
+  /// (0: no limit). `reached_end` (may be null): true when the analysis reached its end,
+  /// false when it stopped at the limit (the last step taken is written and
+  /// checkpointed). PETSC_ERR_NOT_CONVERGED (exit 3) when a solve fails or a dynamic step
+  /// creates energy; what was written stays.
+  PetscErrorCode run(std::int64_t max_steps = 0, bool* reached_end = nullptr);
 
   /// Steps of the whole analysis: load steps (static) or time steps (dynamic).
   std::int64_t total_steps() const;
@@ -77,12 +80,12 @@ class Driver {
  private:
   /// Applies the cut events due by time t (in the configuration of the state) and follows
   /// the topology when links were cut.
-  CutReport cut(double t);
+  PetscErrorCode cut(double t);
   /// After the topology changed: a Simulation (solver, multigrid hierarchy) for the new DM
   /// and the output's tables for the new vertex copies.
-  void follow_topology();
+  PetscErrorCode follow_topology();
   /// The step's output and/or a checkpoint (nothing without an output).
-  void write(const State& s, bool step, bool checkpoint);
+  PetscErrorCode write(const State& s, bool step, bool checkpoint);
 
   MPI_Comm comm_;
   const deck::Deck& deck_;

@@ -4,11 +4,10 @@
 #include <cmath>
 #include <cstdio>
 
-#include "common/errors.hpp"
-
 namespace hexcut::analysis {
 
-void EnergyMonitor::add(const StepEnergy& e, std::int64_t step, double t) {
+PetscErrorCode EnergyMonitor::add(const StepEnergy& e, std::int64_t step, double t) {
+  PetscFunctionBeginUser;
   if (!started_) {
     initial_ = e.kinetic0 + e.strain0;
     started_ = true;
@@ -35,8 +34,9 @@ void EnergyMonitor::add(const StepEnergy& e, std::int64_t step, double t) {
                   "analysis.dt (doc/theory.md, \"Energy balance\")",
                   (long long)step, t, created_, tolerance_, supplied_, initial_, max_work_,
                   energy_);
-    throw SolverError(msg);
+    SETERRQ(comm_, PETSC_ERR_NOT_CONVERGED, "%s", msg);
   }
+  PetscFunctionReturn(0);
 }
 
 std::string EnergyMonitor::summary() const {

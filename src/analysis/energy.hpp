@@ -2,8 +2,11 @@
 // did to the kinetic and strain energy, what the loads and supports put in and what the
 // damping took out, and the rest, the energy the time integration itself created. A run
 // whose scheme creates energy (lagged rotations, a step that is not energy-consistent)
-// is stopped with a SolverError (exit 3) instead of ending with exit 0.
+// is stopped with a solver failure (PETSC_ERR_NOT_CONVERGED, exit 3) instead of ending with
+// exit 0.
 #pragma once
+
+#include <petscsys.h>
 
 #include <cstdint>
 #include <string>
@@ -33,10 +36,11 @@ struct StepEnergy {
 /// tolerance; the mid-point corotational step little (second order in the rotation per step).
 class EnergyMonitor {
  public:
-  explicit EnergyMonitor(double tolerance) : tolerance_(tolerance) {}
-  /// Adds the step that ended at `step`, time `t` [s]. Throws SolverError when the
-  /// created energy exceeds tolerance * supplied.
-  void add(const StepEnergy& e, std::int64_t step, double t);
+  /// The steps' energies are the same on every rank of `comm` (they are sums over it).
+  EnergyMonitor(MPI_Comm comm, double tolerance) : comm_(comm), tolerance_(tolerance) {}
+  /// Adds the step that ended at `step`, time `t` [s]. PETSC_ERR_NOT_CONVERGED on the
+  /// communicator when the created energy exceeds tolerance * supplied.
+  PetscErrorCode add(const StepEnergy& e, std::int64_t step, double t);
   double energy() const { return energy_; }      ///< kinetic + strain after the last step [J]
   double created() const { return created_; }    ///< sum of StepEnergy::created() [J]
   double supplied() const { return supplied_; }  ///< see above [J]
@@ -45,6 +49,7 @@ class EnergyMonitor {
   std::string summary() const;
 
  private:
+  MPI_Comm comm_;
   double tolerance_;
   bool started_ = false;
   double initial_ = 0, energy_ = 0, work_ = 0, max_work_ = 0, created_ = 0, supplied_ = 0,

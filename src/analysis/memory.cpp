@@ -75,24 +75,29 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
   return bytes;
 }
 
-double available_bytes_on_node() {
+PetscErrorCode available_bytes_on_node(double* bytes) {
+  PetscFunctionBeginUser;
   char buf[64] = "";
   PetscBool set = PETSC_FALSE;
-  PetscOptionsGetString(nullptr, nullptr, "-hexcut_memory_available", buf, sizeof buf, &set);
+  PetscCall(
+      PetscOptionsGetString(nullptr, nullptr, "-hexcut_memory_available", buf, sizeof buf, &set));
   if (set) {
     char* end = nullptr;
     const double g = std::strtod(buf, &end);
     if (*buf == '\0' || *end != '\0' || !(g >= 0))
       throw InputError(std::string("-hexcut_memory_available must be a number of GiB >= 0, got '") +
                        buf + "'");
-    return g * 1024.0 * 1024.0 * 1024.0;
+    *bytes = g * 1024.0 * 1024.0 * 1024.0;
+    PetscFunctionReturn(0);
   }
   double avail = meminfo("MemAvailable");
   if (const double room = cgroup_room(); room > 0) avail = avail > 0 ? std::min(avail, room) : room;
-  return avail;
+  *bytes = avail;
+  PetscFunctionReturn(0);
 }
 
-void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells) {
+PetscErrorCode require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells) {
+  PetscFunctionBeginUser;
   int size, node_size, node_rank;
   MPI_Comm_size(comm, &size);
   MPI_Comm node;
@@ -105,7 +110,8 @@ void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material
   // Each node's first rank compares its node's need with what the node has.
   double worst[3] = {0.0, 0.0, 0.0};  // need / available, need, available
   if (node_rank == 0) {
-    const double avail = available_bytes_on_node();
+    double avail = 0.0;
+    PetscCall(available_bytes_on_node(&avail));
     const double need = per_rank * node_size;
     if (avail > 0) worst[0] = need / avail, worst[1] = need, worst[2] = avail;
   }
@@ -116,7 +122,7 @@ void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material
   MPI_Comm_rank(comm, &mine.rank);
   MPI_Allreduce(&mine, &max, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm);
   MPI_Bcast(worst, 3, MPI_DOUBLE, max.rank, comm);
-  if (max.ratio <= 1.0) return;
+  if (max.ratio <= 1.0) PetscFunctionReturn(0);
   char msg[600];
   if (material_cells < 0)
     std::snprintf(msg, sizeof msg,

@@ -3,7 +3,7 @@
 // minutes later (doc/user-guide.md, "Memory").
 #pragma once
 
-#include <mpi.h>
+#include <petscsys.h>
 
 #include <cstdint>
 #include <string>
@@ -25,11 +25,12 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
 
 /// Memory this node can give the job [bytes]: MemAvailable of /proc/meminfo, capped by
 /// the cgroup's limit (batch systems), or -hexcut_memory_available GiB when given;
-/// 0 = unknown or check disabled (-hexcut_memory_available 0).
-double available_bytes_on_node();
+/// 0 = unknown or check disabled (-hexcut_memory_available 0). Throws InputError when
+/// -hexcut_memory_available is not a number >= 0.
+PetscErrorCode available_bytes_on_node(double* bytes);
 
 /// Throws InputError when the ranks on some node would need more than that node has:
 /// `material_cells` < 0 checks the lattice alone (before voxelization). Collective.
-void require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells);
+PetscErrorCode require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells);
 
 }  // namespace hexcut::analysis

@@ -111,9 +111,9 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
   PetscMPIInt rank, size;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
-  require_memory(comm, deck, -1);  // before the dense lattice tables are allocated
+  PetscCall(require_memory(comm, deck, -1));  // before the dense lattice tables are allocated
   M->lattice = build_lattice(deck, &M->warnings);
-  require_memory(comm, deck, M->lattice.num_cells());
+  PetscCall(require_memory(comm, deck, M->lattice.num_cells()));
   M->copies = topology::build_vertex_copies(M->lattice);
   M->partition = topology::partition_lattice(M->lattice, M->copies, size, superblock);
   PetscCall(build_distributed_data(comm, deck, rank, M));

@@ -7,7 +7,6 @@
 #include "assembly/operator.hpp"
 #include "common/errors.hpp"
 #include "common/mpi_gather.hpp"
-#include "common/petsc_check.hpp"
 #include "element/element.hpp"
 #include "element/trilinear.hpp"
 #include "hexcut_version.hpp"
@@ -146,49 +145,63 @@ ResultOutput::ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& 
       model_(model),
       deck_(deck),
       writer_(restart ? output::ResultWriter::open(path, comm)
-                      : create_writer(comm, model, deck, path, command_line)) {
-  create_scatters();
+                      : create_writer(comm, model, deck, path, command_line)) {}
+
+PetscErrorCode ResultOutput::create(MPI_Comm comm, const Model& model, const deck::Deck& deck,
+                                    const std::string& path, const std::string& command_line,
+                                    bool restart, std::unique_ptr<ResultOutput>* out) {
+  PetscFunctionBeginUser;
+  std::unique_ptr<ResultOutput> o(new ResultOutput(comm, model, deck, path, command_line, restart));
+  PetscCall(o->create_scatters());
+  *out = std::move(o);
+  PetscFunctionReturn(0);
 }
 
 ResultOutput::~ResultOutput() {
   destroy_scatters();
 }
 
-void ResultOutput::create_scatters() {
+PetscErrorCode ResultOutput::create_scatters() {
+  PetscFunctionBeginUser;
   const auto& D = model_.layout;
-  check_petsc(topology::create_natural_scatter(
-                  comm_, D.num_global_copies,
-                  std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
-                  D.first_owned_block(), 3, &points_),
-              "create_natural_scatter");
+  PetscCall(topology::create_natural_scatter(
+      comm_, D.num_global_copies,
+      std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
+      D.first_owned_block(), 3, &points_));
   const PetscInt n_local = PetscInt(D.cells.size());
   first_local_cell_ = 0;
-  MPI_Exscan(&n_local, &first_local_cell_, 1, MPIU_INT, MPI_SUM, comm_);
+  PetscCallMPI(MPI_Exscan(&n_local, &first_local_cell_, 1, MPIU_INT, MPI_SUM, comm_));
   if (D.rank == 0) first_local_cell_ = 0;
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::destroy_scatters() {
-  destroy_natural_scatter(&points_);
-  destroy_natural_scatter(&surface_points_);
-  for (auto& [b, s] : cells_) destroy_natural_scatter(&s);
+PetscErrorCode ResultOutput::destroy_scatters() {
+  PetscFunctionBeginUser;
+  PetscCall(destroy_natural_scatter(&points_));
+  PetscCall(destroy_natural_scatter(&surface_points_));
+  for (auto& [b, s] : cells_) PetscCall(destroy_natural_scatter(&s));
   cells_.clear();
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::topology_changed() {
-  destroy_scatters();
-  create_scatters();
+PetscErrorCode ResultOutput::topology_changed() {
+  PetscFunctionBeginUser;
+  PetscCall(destroy_scatters());
+  PetscCall(create_scatters());
   mesh_pending_ = true;
   surface_.reset();
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::write_surface(const State& s) {
+PetscErrorCode ResultOutput::write_surface(const State& s) {
+  PetscFunctionBeginUser;
   const auto& M = model_;
   const auto& D = M.layout;
   if (!hermite_) {
     // The geometry's crossings cost ~30 membership tests per boundary face (seconds for a
     // mesh body): each rank does a share of the cells, and all gather the table.
     int size;
-    MPI_Comm_size(comm_, &size);
+    PetscCallMPI(MPI_Comm_size(comm_, &size));
     const std::int64_t n = M.lattice.num_cells();
     const auto mine = surface::boundary_hermite(M.lattice, deck::membership_ops(deck_),
                                                 std::int32_t(n * D.rank / size),
@@ -207,23 +220,22 @@ void ResultOutput::write_surface(const State& s) {
         surface_mine_.push_back(std::int32_t(v));
     const PetscInt mine = PetscInt(surface_mine_.size());
     PetscInt begin = 0;
-    MPI_Exscan(&mine, &begin, 1, MPIU_INT, MPI_SUM, comm_);
+    PetscCallMPI(MPI_Exscan(&mine, &begin, 1, MPIU_INT, MPI_SUM, comm_));
     if (D.rank == 0) begin = 0;
-    destroy_natural_scatter(&surface_points_);
-    check_petsc(topology::create_natural_scatter(comm_, PetscInt(surface_->position.size()),
-                                                 surface_mine_, begin, 3, &surface_points_),
-                "create_natural_scatter");
+    PetscCall(destroy_natural_scatter(&surface_points_));
+    PetscCall(topology::create_natural_scatter(comm_, PetscInt(surface_->position.size()),
+                                               surface_mine_, begin, 3, &surface_points_));
   }
   const auto& S = *surface_;
   // Deformed positions of this rank's vertices: trilinear in the owning cell's corners.
   Vec moved;
-  check_petsc(VecCreateMPI(comm_, 3 * PetscInt(surface_mine_.size()), PETSC_DETERMINE, &moved),
-              "VecCreateMPI");
+  PetscCall(VecCreateMPI(comm_, 3 * PetscInt(surface_mine_.size()), PETSC_DETERMINE, &moved));
   {
-    const assembly::LocalValues ul(M.dm, s.u);
+    assembly::LocalValues ul;
+    PetscCall(ul.get(M.dm, s.u));
     const PetscScalar* u = ul.data();
     PetscScalar* x;
-    check_petsc(VecGetArray(moved, &x), "VecGetArray");
+    PetscCall(VecGetArray(moved, &x));
     for (std::size_t i = 0; i < surface_mine_.size(); ++i) {
       const auto v = surface_mine_[i];
       const auto e = std::size_t(std::lower_bound(D.cells.begin(), D.cells.end(), S.cell[v]) -
@@ -235,18 +247,16 @@ void ResultOutput::write_surface(const State& s) {
         for (int d = 0; d < 3; ++d) x[3 * i + d] += w * u[3 * D.cell_corners[e][q] + d];
       }
     }
-    check_petsc(VecRestoreArray(moved, &x), "VecRestoreArray");
+    PetscCall(VecRestoreArray(moved, &x));
   }
   auto& ns = surface_points_;
-  check_petsc(VecScatterBegin(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
-  check_petsc(VecScatterEnd(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
-  check_petsc(VecDestroy(&moved), "VecDestroy");
+  PetscCall(VecScatterBegin(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(ns.scatter, moved, ns.natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecDestroy(&moved));
   output::SurfaceData data;
   data.vertices = {std::int64_t(S.position.size()), ns.row_begin, ns.rows};
   const PetscScalar* positions;
-  check_petsc(VecGetArrayRead(ns.natural, &positions), "VecGetArrayRead");
+  PetscCall(VecGetArrayRead(ns.natural, &positions));
   data.positions = positions;
   data.owner_cell = S.cell.data() + ns.row_begin;
   data.faces = even_slab(comm_, std::int64_t(S.triangles.size()));
@@ -256,50 +266,62 @@ void ResultOutput::write_surface(const State& s) {
   data.triangles = triangles.data();
   data.cut_id = S.cut_id.data() + data.faces.row_offset;
   writer_.write_surface(s.step, data);
-  check_petsc(VecRestoreArrayRead(ns.natural, &positions), "VecRestoreArrayRead");
+  PetscCall(VecRestoreArrayRead(ns.natural, &positions));
+  PetscFunctionReturn(0);
 }
 
-topology::NaturalScatter& ResultOutput::cell_scatter(int block) {
+PetscErrorCode ResultOutput::cell_scatter(int block, topology::NaturalScatter** scatter) {
+  PetscFunctionBeginUser;
   auto it = cells_.find(block);
-  if (it != cells_.end()) return it->second;
-  auto& s = cells_[block];
-  check_petsc(topology::create_natural_scatter(comm_, model_.lattice.num_cells(),
-                                               model_.layout.cells, first_local_cell_, block, &s),
-              "create_natural_scatter");
-  return s;
+  if (it == cells_.end()) {
+    it = cells_.emplace(block, topology::NaturalScatter{}).first;
+    PetscCall(topology::create_natural_scatter(comm_, model_.lattice.num_cells(),
+                                               model_.layout.cells, first_local_cell_, block,
+                                               &it->second));
+  }
+  *scatter = &it->second;
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::write_point_vector(std::int64_t step, const std::string& name, Vec v,
-                                      const std::string& unit) {
-  check_petsc(VecScatterBegin(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
-  check_petsc(VecScatterEnd(points_.scatter, v, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
+PetscErrorCode ResultOutput::gather_points(Vec x) {
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ResultOutput::write_point_vector(std::int64_t step, const std::string& name, Vec v,
+                                                const std::string& unit) {
+  PetscFunctionBeginUser;
+  PetscCall(gather_points(v));
   const PetscScalar* a;
-  check_petsc(VecGetArrayRead(points_.natural, &a), "VecGetArrayRead");
+  PetscCall(VecGetArrayRead(points_.natural, &a));
   writer_.write_point_field(step, name, 3, points_.row_begin, points_.rows, a, unit);
-  check_petsc(VecRestoreArrayRead(points_.natural, &a), "VecRestoreArrayRead");
+  PetscCall(VecRestoreArrayRead(points_.natural, &a));
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::write_cell_values(std::int64_t step, const std::string& name, int block,
-                                     const std::vector<double>& values, const std::string& unit) {
-  auto& s = cell_scatter(block);
+PetscErrorCode ResultOutput::write_cell_values(std::int64_t step, const std::string& name,
+                                               int block, const std::vector<double>& values,
+                                               const std::string& unit) {
+  PetscFunctionBeginUser;
+  topology::NaturalScatter* s;
+  PetscCall(cell_scatter(block, &s));
   Vec local;
-  check_petsc(VecCreateMPIWithArray(comm_, block, PetscInt(values.size()), PETSC_DETERMINE,
-                                    values.data(), &local),
-              "VecCreateMPIWithArray");
-  check_petsc(VecScatterBegin(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
-  check_petsc(VecScatterEnd(s.scatter, local, s.natural, INSERT_VALUES, SCATTER_FORWARD),
-              "scatter");
-  check_petsc(VecDestroy(&local), "VecDestroy");
+  PetscCall(VecCreateMPIWithArray(comm_, block, PetscInt(values.size()), PETSC_DETERMINE,
+                                  values.data(), &local));
+  PetscCall(VecScatterBegin(s->scatter, local, s->natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(s->scatter, local, s->natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecDestroy(&local));
   const PetscScalar* a;
-  check_petsc(VecGetArrayRead(s.natural, &a), "VecGetArrayRead");
-  writer_.write_cell_field(step, name, block, s.row_begin, s.rows, a, unit);
-  check_petsc(VecRestoreArrayRead(s.natural, &a), "VecRestoreArrayRead");
+  PetscCall(VecGetArrayRead(s->natural, &a));
+  writer_.write_cell_field(step, name, block, s->row_begin, s->rows, a, unit);
+  PetscCall(VecRestoreArrayRead(s->natural, &a));
+  PetscFunctionReturn(0);
 }
 
-void ResultOutput::write_step(const State& s, bool corotational) {
+PetscErrorCode ResultOutput::write_step(const State& s, bool corotational) {
+  PetscFunctionBeginUser;
   const auto& o = deck_.output;
   writer_.begin_step(s.step, s.time);
   if (mesh_pending_) {
@@ -309,21 +331,25 @@ void ResultOutput::write_step(const State& s, bool corotational) {
     writer_.write_mesh(s.step, t.mesh);
     mesh_pending_ = false;
   }
-  if (o.has_field("surface")) write_surface(s);
-  if (o.has_field("displacement")) write_point_vector(s.step, "displacement", s.u, "m");
-  if (o.has_field("velocity")) write_point_vector(s.step, "velocity", s.v, "m/s");
-  if (o.has_field("acceleration")) write_point_vector(s.step, "acceleration", s.a, "m/s^2");
+  if (o.has_field("surface")) PetscCall(write_surface(s));
+  if (o.has_field("displacement")) PetscCall(write_point_vector(s.step, "displacement", s.u, "m"));
+  if (o.has_field("velocity")) PetscCall(write_point_vector(s.step, "velocity", s.v, "m/s"));
+  if (o.has_field("acceleration"))
+    PetscCall(write_point_vector(s.step, "acceleration", s.a, "m/s^2"));
   const bool any_stress = o.has_field("stress") || o.has_field("von_mises") ||
                           o.has_field("pressure") || o.has_field("principal_stress") ||
                           o.has_field("principal_directions");
   if (any_stress) {
     CellStressFields f;
-    PetscLogEventBegin(events().stress, 0, 0, 0, 0);
-    check_petsc(compute_stress(model_, corotational, s.u, &f), "compute_stress");
-    PetscLogEventEnd(events().stress, 0, 0, 0, 0);
-    if (o.has_field("stress")) write_cell_values(s.step, "stress", 6, f.sigma, "Pa");
-    if (o.has_field("von_mises")) write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa");
-    if (o.has_field("pressure")) write_cell_values(s.step, "pressure", 1, f.pressure, "Pa");
+    {
+      EventScope scope(events().stress);
+      PetscCall(compute_stress(model_, corotational, s.u, &f));
+    }
+    if (o.has_field("stress")) PetscCall(write_cell_values(s.step, "stress", 6, f.sigma, "Pa"));
+    if (o.has_field("von_mises"))
+      PetscCall(write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa"));
+    if (o.has_field("pressure"))
+      PetscCall(write_cell_values(s.step, "pressure", 1, f.pressure, "Pa"));
     // One dataset per principal value and direction (format version 2): scalars to colour
     // by and vectors that ParaView's Glyph takes, where a (n, 3) or (n, 9) table reads as
     // one vector or 9 unnamed components (doc/output-format.md).
@@ -333,16 +359,17 @@ void ResultOutput::write_step(const State& s, bool corotational) {
       const std::string k = std::to_string(i + 1);
       if (o.has_field("principal_stress")) {
         for (std::size_t e = 0; e < n; ++e) value[e] = f.principal[3 * e + i];
-        write_cell_values(s.step, "principal_stress_" + k, 1, value, "Pa");
+        PetscCall(write_cell_values(s.step, "principal_stress_" + k, 1, value, "Pa"));
       }
       if (o.has_field("principal_directions")) {
         for (std::size_t e = 0; e < n; ++e)
           for (int d = 0; d < 3; ++d) direction[3 * e + d] = f.directions[9 * e + 3 * i + d];
-        write_cell_values(s.step, "principal_direction_" + k, 3, direction, "1");
+        PetscCall(write_cell_values(s.step, "principal_direction_" + k, 3, direction, "1"));
       }
     }
   }
   writer_.end_step();
+  PetscFunctionReturn(0);
 }
 
 void ResultOutput::record_solve(std::int64_t step, double time, const solve::SolveRecord& r) {
@@ -358,22 +385,17 @@ void ResultOutput::record_solve(std::int64_t step, double time, const solve::Sol
   writer_.append_solve(rec);
 }
 
-void ResultOutput::write_checkpoint(const State& s) {
-  std::vector<double> u, v, a;
-  const PetscScalar* p;
-  auto gather = [&](Vec x, std::vector<double>& out) {
-    check_petsc(
-        VecScatterBegin(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
-        "scatter");
-    check_petsc(VecScatterEnd(points_.scatter, x, points_.natural, INSERT_VALUES, SCATTER_FORWARD),
-                "scatter");
-    check_petsc(VecGetArrayRead(points_.natural, &p), "VecGetArrayRead");
-    out.assign(p, p + 3 * points_.rows);
-    check_petsc(VecRestoreArrayRead(points_.natural, &p), "VecRestoreArrayRead");
-  };
-  gather(s.u, u);
-  gather(s.v, v);
-  gather(s.a, a);
+PetscErrorCode ResultOutput::write_checkpoint(const State& s) {
+  PetscFunctionBeginUser;
+  std::vector<double> fields[3];  // u, v, a
+  const Vec x[3] = {s.u, s.v, s.a};
+  for (int k = 0; k < 3; ++k) {
+    PetscCall(gather_points(x[k]));
+    const PetscScalar* p;
+    PetscCall(VecGetArrayRead(points_.natural, &p));
+    fields[k].assign(p, p + 3 * points_.rows);
+    PetscCall(VecRestoreArrayRead(points_.natural, &p));
+  }
   // The current topology's point count: after a cut the writer's mesh is the old one
   // until the next output step.
   const output::Slab points{model_.layout.num_global_copies, points_.row_begin, points_.rows};
@@ -383,8 +405,9 @@ void ResultOutput::write_checkpoint(const State& s) {
   std::vector<std::int32_t> table(kCutLinkColumns * links.local_rows);
   for (std::int64_t i = 0; i < links.local_rows; ++i)
     encode_cut_link(cuts[links.row_offset + i], &table[kCutLinkColumns * i]);
-  writer_.write_checkpoint(s.step, s.time, points, u.data(), v.data(), a.data(), links,
-                           kCutLinkColumns, table.data());
+  writer_.write_checkpoint(s.step, s.time, points, fields[0].data(), fields[1].data(),
+                           fields[2].data(), links, kCutLinkColumns, table.data());
+  PetscFunctionReturn(0);
 }
 
 std::vector<lattice::CutLink> ResultOutput::checkpoint_cut_links() {
@@ -403,7 +426,8 @@ std::vector<lattice::CutLink> ResultOutput::checkpoint_cut_links() {
   return links;
 }
 
-void ResultOutput::read_checkpoint(State* s) {
+PetscErrorCode ResultOutput::read_checkpoint(State* s) {
+  PetscFunctionBeginUser;
   const auto header = writer_.checkpoint_info();
   if (!header) throw InputError(path() + ": the file has no checkpoint to restart from");
   if (header->num_points != model_.layout.num_global_copies ||
@@ -413,26 +437,25 @@ void ResultOutput::read_checkpoint(State* s) {
                      " cells) does not match this deck's model (" +
                      std::to_string(model_.layout.num_global_copies) + " points, " +
                      std::to_string(model_.lattice.num_cells()) + " cells)");
-  std::vector<double> u(3 * points_.rows), v(3 * points_.rows), a(3 * points_.rows);
-  const auto info =
-      writer_.read_checkpoint(points_.row_begin, points_.rows, u.data(), v.data(), a.data());
-  auto scatter_back = [&](const std::vector<double>& slab, Vec x) {
+  std::vector<double> fields[3];  // u, v, a
+  for (auto& f : fields) f.resize(3 * points_.rows);
+  const auto info = writer_.read_checkpoint(points_.row_begin, points_.rows, fields[0].data(),
+                                            fields[1].data(), fields[2].data());
+  const Vec x[3] = {s->u, s->v, s->a};
+  for (int k = 0; k < 3; ++k) {
     PetscScalar* p;
-    check_petsc(VecGetArray(points_.natural, &p), "VecGetArray");
-    std::copy(slab.begin(), slab.end(), p);
-    check_petsc(VecRestoreArray(points_.natural, &p), "VecRestoreArray");
-    check_petsc(
-        VecScatterBegin(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE),
-        "scatter");
-    check_petsc(VecScatterEnd(points_.scatter, points_.natural, x, INSERT_VALUES, SCATTER_REVERSE),
-                "scatter");
-  };
-  scatter_back(u, s->u);
-  scatter_back(v, s->v);
-  scatter_back(a, s->a);
+    PetscCall(VecGetArray(points_.natural, &p));
+    std::copy(fields[k].begin(), fields[k].end(), p);
+    PetscCall(VecRestoreArray(points_.natural, &p));
+    PetscCall(
+        VecScatterBegin(points_.scatter, points_.natural, x[k], INSERT_VALUES, SCATTER_REVERSE));
+    PetscCall(
+        VecScatterEnd(points_.scatter, points_.natural, x[k], INSERT_VALUES, SCATTER_REVERSE));
+  }
   s->step = info.step;
   s->time = info.time;
   writer_.truncate_steps_after(info.step);
+  PetscFunctionReturn(0);
 }
 
 }  // namespace hexcut::analysis

@@ -25,11 +25,15 @@ struct CellStressFields {
 };
 PetscErrorCode compute_stress(const Model& model, bool corotational, Vec u, CellStressFields* out);
 
+/// The members that do PETSc work return a PetscErrorCode (common/petsc_check.hpp); the
+/// result file's own errors (HDF5, output::ResultWriter) and the checks of a restart
+/// (InputError) are exceptions.
 class ResultOutput {
  public:
   /// Creates a new result file (mesh + input written) or, with `restart`, re-opens it.
-  ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck, const std::string& path,
-               const std::string& command_line, bool restart);
+  static PetscErrorCode create(MPI_Comm comm, const Model& model, const deck::Deck& deck,
+                               const std::string& path, const std::string& command_line,
+                               bool restart, std::unique_ptr<ResultOutput>* out);
   ~ResultOutput();
   ResultOutput(const ResultOutput&) = delete;
   ResultOutput& operator=(const ResultOutput&) = delete;
@@ -39,27 +43,32 @@ class ResultOutput {
 
   /// The model's topology changed (a cut): the point tables are rebuilt, and the next
   /// written step carries the new mesh.
-  void topology_changed();
+  PetscErrorCode topology_changed();
   /// Writes one output step with the fields the deck asks for.
-  void write_step(const State& s, bool corotational);
+  PetscErrorCode write_step(const State& s, bool corotational);
   void record_solve(std::int64_t step, double time, const solve::SolveRecord& r);
-  void write_checkpoint(const State& s);
+  PetscErrorCode write_checkpoint(const State& s);
   /// The cut links stored with the current checkpoint (empty: none, or no checkpoint), in
   /// cutting order: restore them (restore_cuts) before read_checkpoint.
   std::vector<lattice::CutLink> checkpoint_cut_links();
   /// Reads the checkpoint into s (u, v, a, time, step); drops later steps from the file.
   /// Throws InputError when the checkpoint's point count is not the model's.
-  void read_checkpoint(State* s);
+  PetscErrorCode read_checkpoint(State* s);
 
  private:
-  topology::NaturalScatter& cell_scatter(int block);
-  void create_scatters();
-  void destroy_scatters();
-  void write_point_vector(std::int64_t step, const std::string& name, Vec v,
-                          const std::string& unit);
-  void write_cell_values(std::int64_t step, const std::string& name, int block,
-                         const std::vector<double>& values, const std::string& unit);
-  void write_surface(const State& s);
+  ResultOutput(MPI_Comm comm, const Model& model, const deck::Deck& deck, const std::string& path,
+               const std::string& command_line, bool restart);
+  PetscErrorCode cell_scatter(int block, topology::NaturalScatter** scatter);
+  PetscErrorCode create_scatters();
+  PetscErrorCode destroy_scatters();
+  PetscErrorCode write_point_vector(std::int64_t step, const std::string& name, Vec v,
+                                    const std::string& unit);
+  PetscErrorCode write_cell_values(std::int64_t step, const std::string& name, int block,
+                                   const std::vector<double>& values, const std::string& unit);
+  PetscErrorCode write_surface(const State& s);
+  /// Scatters x (a global vector of the model's DM, 3 per point) into points_.natural:
+  /// this rank's slab of the points in canonical order.
+  PetscErrorCode gather_points(Vec x);
 
   MPI_Comm comm_;
   const Model& model_;

@@ -7,6 +7,7 @@
 #include <petscksp.h>
 
 #include <functional>
+#include <memory>
 
 #include "analysis/energy.hpp"
 #include "analysis/model.hpp"
@@ -21,10 +22,16 @@ using OnSolve = std::function<void(const State&, const solve::SolveRecord&)>;
 
 /// The physics of one step on one topology: owns the system matrix (or the multigrid) and the
 /// KSP. The steps are taken by analysis::Driver (analysis/driver.hpp), which replaces the
-/// Simulation when the topology changes.
+/// Simulation when the topology changes. PETSc-style: every member that does PETSc work
+/// returns a PetscErrorCode; a solve that fails is PETSC_ERR_NOT_CONVERGED with hexcut's
+/// message (common/petsc_check.hpp).
 class Simulation {
  public:
-  Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck);
+  /// Creates the Simulation of `model` (both must outlive it): the solver, whose PETSc
+  /// options are parsed here (an error in them is PETSC_ERR_USER_INPUT), and the multigrid
+  /// hierarchy or the matrix.
+  static PetscErrorCode create(MPI_Comm comm, Model& model, const deck::Deck& deck,
+                               std::unique_ptr<Simulation>* sim);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
@@ -32,19 +39,20 @@ class Simulation {
   /// Load step state.step + 1 of n of a static analysis (pseudo-time s/n; time functions at
   /// t = 1, loads and prescribed displacements scaled by s/n). Linear: one solve.
   /// Corotational: fixed-point iteration, rotations from the last iterate, until
-  /// ||u_k+1 - u_k|| <= tolerance ||u_k+1||; on_solve after each solve. Throws SolverError
-  /// if it does not converge.
-  void static_step(State& state, const OnSolve& on_solve = {});
+  /// ||u_k+1 - u_k|| <= tolerance ||u_k+1||; on_solve after each solve.
+  /// PETSC_ERR_NOT_CONVERGED if it does not converge.
+  PetscErrorCode static_step(State& state, const OnSolve& on_solve = {});
 
   /// Sets the initial acceleration from M a0 = f(t0) - K u0 + b^ (prescribed rows: 0).
-  void initial_acceleration(State& state);
+  PetscErrorCode initial_acceleration(State& state);
   /// One time step (exposed for tests): Newmark beta = 1/4, gamma = 1/2 for linear runs
   /// and lagged rotations (one solve); for corotational runs with analysis.rotations:
   /// iterated the mid-point step (doc/theory.md "Mid-point corotational step"), which
-  /// iterates until ||u_k+1 - u_k|| <= tolerance ||u_k+1 - u_n|| and throws SolverError
-  /// after analysis.max_iterations. The record sums the Krylov iterations and times of the
-  /// step's solves (residuals: the last solve's). Also fills last_step_energy().
-  solve::SolveRecord newmark_step(State& state);
+  /// iterates until ||u_k+1 - u_k|| <= tolerance ||u_k+1 - u_n|| and fails with
+  /// PETSC_ERR_NOT_CONVERGED after analysis.max_iterations. `rec` (may be null) gets the
+  /// sum of the Krylov iterations and times of the step's solves (residuals: the last
+  /// solve's). Also fills last_step_energy().
+  PetscErrorCode newmark_step(State& state, solve::SolveRecord* rec = nullptr);
   /// The energy terms of the last newmark_step (doc/theory.md "Energy balance").
   const StepEnergy& last_step_energy() const { return energy_; }
   /// Linear solves of the last newmark_step (1 unless rotations are iterated).
@@ -52,8 +60,8 @@ class Simulation {
 
   /// Energies of a state [J]: kinetic 1/2 v^T M v and strain sum_e 1/2 d^T K d with the
   /// corotated displacement d of each cell (rotations from s.u; linear runs: 1/2 u^T K u).
-  double kinetic_energy(const State& s);
-  double elastic_energy(const State& s);
+  PetscErrorCode kinetic_energy(const State& s, double* energy);
+  PetscErrorCode elastic_energy(const State& s, double* energy);
 
   bool corotational() const;
   bool uses_multigrid() const;
@@ -62,19 +70,22 @@ class Simulation {
   multigrid::Multigrid* multigrid() const { return mg_.get(); }
 
  private:
-  void assemble(const assembly::OperatorWeights& w);
-  void refresh_rotations(Vec u);
+  Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck);
+  PetscErrorCode setup();
+  PetscErrorCode assemble(const assembly::OperatorWeights& w);
+  PetscErrorCode refresh_rotations(Vec u);
   /// One Newmark solve with the rotations of s.u (linear runs: identity).
-  solve::SolveRecord linearized_step(State& s, Vec u_new);
+  PetscErrorCode linearized_step(State& s, Vec u_new, solve::SolveRecord* rec);
   /// The mid-point corotational step; fbar: its mean internal force at the end.
-  solve::SolveRecord midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar);
-  double kinetic(Vec v);
-  double strain_energy(Vec u);
+  PetscErrorCode midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar,
+                               solve::SolveRecord* rec);
+  PetscErrorCode kinetic(Vec v, double* energy);
+  PetscErrorCode strain_energy(Vec u, double* energy);
   /// Fills energy_ for the step (u0, v0) -> (s.u, s.v). fbar: the step's mean internal
   /// force, or null to compute (f(u0) + f(u1))/2; used only for support reactions.
-  void account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar, double strain0,
-                      double strain1);
-  void internal_force(Vec u, Vec f);
+  PetscErrorCode account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar,
+                                double strain0, double strain1);
+  PetscErrorCode internal_force(Vec u, Vec f);
 
   MPI_Comm comm_;
   Model& model_;

@@ -71,7 +71,7 @@ struct OptionSetup {
 
 OptionSetup setup_options(const deck::Deck& deck) {
   OptionSetup o;
-  check_petsc(solve::insert_deck_options(deck.solver), "insert_deck_options");
+  throw_on_petsc_error(solve::insert_deck_options(deck.solver));
   o.user_options = options_in_database();
   o.hexcut = read_hexcut_options();
   return o;
@@ -177,17 +177,18 @@ void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
   namespace an = analysis;
   const auto options = setup_options(deck);
   an::Model model;
-  check_petsc(an::build_model(comm, deck, options.hexcut.superblock, &model), "build_model");
+  throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "%s: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
               int(model.lattice.num_cells()), 3 * int(model.copies.num_copies),
               int(model.boundary.constraints.global_count));
   an::State state;
-  check_petsc(an::create_state(model.dm, &state), "create_state");
+  throw_on_petsc_error(an::create_state(model.dm, &state));
   {
     // The solver as the run creates it (PETSc parses the options here), and the static
     // cuts with the pieces they leave.
     std::unique_ptr<an::Simulation> sim;
+    throw_on_petsc_error(an::Simulation::create(comm, model, deck, &sim));
     an::DriverHooks hooks;
     hooks.on_cuts = [&](const an::CutReport& r, double t) { print_cut_report(comm, model, r, t); };
     an::Driver driver(comm, deck, model, state, sim, hooks);
@@ -196,11 +197,11 @@ void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
                   "%s: %d cut(s) act during the run (not checked here: they depend on "
                   "the motion)\n",
                   deck.path.c_str(), int(deck.cuts.size()));
-    driver.prepare();
+    throw_on_petsc_error(driver.prepare());
   }
   PetscPrintf(comm, "%s: deck is valid\n", deck.path.c_str());
-  check_petsc(an::destroy_state(&state), "destroy_state");
-  check_petsc(an::destroy_model(&model), "destroy_model");
+  throw_on_petsc_error(an::destroy_state(&state));
+  throw_on_petsc_error(an::destroy_model(&model));
 }
 
 void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
@@ -216,9 +217,10 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   const ResultPaths paths = plan_result(comm, deck, job);
 
   an::Model model;
-  PetscLogEventBegin(ev.setup, 0, 0, 0, 0);
-  check_petsc(an::build_model(comm, deck, options.hexcut.superblock, &model), "build_model");
-  PetscLogEventEnd(ev.setup, 0, 0, 0, 0);
+  {
+    const an::EventScope scope(ev.setup);
+    throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
+  }
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",
               int(model.lattice.num_cells()), int(model.copies.num_copies),
@@ -230,7 +232,7 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                 paths.write_path.c_str(), paths.final_path.c_str());
 
   an::State state;
-  check_petsc(an::create_state(model.dm, &state), "create_state");
+  throw_on_petsc_error(an::create_state(model.dm, &state));
   std::unique_ptr<an::Simulation> sim;
   std::int64_t last_its = 0;
   double last_res = 0;
@@ -257,40 +259,44 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
                 format_seconds(per_step * double(total - s.step)).c_str());
   };
   // Cuts (doc/theory.md, "Cutting"), steps, output and checkpoints: analysis::Driver.
+  throw_on_petsc_error(an::Simulation::create(comm, model, deck, &sim));
   driver = std::make_unique<an::Driver>(comm, deck, model, state, sim, hooks);
   {
     KSPType ksp_type;
     PCType pc_type;
     PC pc;
-    check_petsc(KSPGetType(sim->ksp(), &ksp_type), "KSPGetType");
-    check_petsc(KSPGetPC(sim->ksp(), &pc), "KSPGetPC");
-    check_petsc(PCGetType(pc, &pc_type), "PCGetType");
+    throw_on_petsc_error(KSPGetType(sim->ksp(), &ksp_type));
+    throw_on_petsc_error(KSPGetPC(sim->ksp(), &pc));
+    throw_on_petsc_error(PCGetType(pc, &pc_type));
     PetscPrintf(comm, "hexcut: solver %s (KSP %s, PC %s), rtol %g\n",
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
   }
   // A static body its supports do not hold stops here, before the result file exists.
-  if (!restart) driver->prepare();
+  if (!restart) throw_on_petsc_error(driver->prepare());
   // The result file: created (mesh and input written) or, on restart, re-opened.
-  std::unique_ptr<an::ResultOutput> out = std::make_unique<an::ResultOutput>(
-      comm, model, deck, paths.write_path, job.command_line, restart);
+  std::unique_ptr<an::ResultOutput> out;
+  throw_on_petsc_error(an::ResultOutput::create(comm, model, deck, paths.write_path,
+                                                job.command_line, restart, &out));
   driver->set_output(out.get());
   if (restart) {
     // A run that was cut: rebuild the cut topology from the checkpoint's links first.
     const auto links = out->checkpoint_cut_links();
-    driver->restore_cuts(links);
-    out->read_checkpoint(&state);
-    driver->resume();
+    throw_on_petsc_error(driver->restore_cuts(links));
+    throw_on_petsc_error(out->read_checkpoint(&state));
+    throw_on_petsc_error(driver->resume());
     PetscPrintf(
         comm, "hexcut: restarting from %s at step %lld, t = %g s (%lld cut links restored)\n",
         paths.final_path.c_str(), (long long)state.step, state.time, (long long)links.size());
   } else {
-    driver->begin();
+    throw_on_petsc_error(driver->begin());
   }
   first_step = state.step;
   PetscTime(&t_loop);
   try {
-    if (!driver->run(max_steps))
+    bool reached_end = false;
+    throw_on_petsc_error(driver->run(max_steps, &reached_end));
+    if (!reached_end)
       PetscPrintf(
           comm,
           "hexcut: stopped after %lld steps (-hexcut_max_steps); continue with --restart %s\n",
@@ -320,8 +326,8 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
               paths.final_path.c_str(), indexes.c_str(), t_end - t_start,
               total_peak / (1024.0 * 1024.0));
   warn_unused_options(comm, options.user_options);
-  check_petsc(an::destroy_state(&state), "destroy_state");
-  check_petsc(an::destroy_model(&model), "destroy_model");
+  throw_on_petsc_error(an::destroy_state(&state));
+  throw_on_petsc_error(an::destroy_model(&model));
 }
 
 }  // namespace hexcut::app

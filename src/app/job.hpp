@@ -1,5 +1,7 @@
 // One hexcut job: deck -> model -> analysis -> result file. main() only parses the
-// command line and maps exceptions to exit codes.
+// command line and maps exceptions to exit codes. The job calls the analysis, whose PETSc
+// errors travel as error codes, through the one boundary that turns them into those
+// exceptions (throw_on_petsc_error, common/petsc_check.hpp).
 #pragma once
 
 #include <mpi.h>

@@ -13,6 +13,7 @@
 
 #include "app/job.hpp"
 #include "common/errors.hpp"
+#include "common/petsc_check.hpp"
 #include "hexcut_version.hpp"
 
 namespace {
@@ -85,6 +86,12 @@ int main(int argc, char** argv) {
   int pargc = int(petsc_args.size()) - 1;
   char** pargv = petsc_args.data();
   if (PetscInitialize(&pargc, &pargv, nullptr, nullptr) != 0) return hexcut::kExitOther;
+  // hexcut's own errors (solver failures, invalid input) reach the catch blocks below with
+  // their one-line message, without PETSc's traceback (common/petsc_check.hpp).
+  if (hexcut::push_error_handler() != 0) {
+    PetscFinalize();
+    return hexcut::kExitOther;
+  }
 
   int code = hexcut::kExitOk, rank = 0, size = 1;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);

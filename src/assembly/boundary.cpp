@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "assembly/fine_cells.hpp"
 #include "common/errors.hpp"
 #include "common/mpi_gather.hpp"
 #include "deck/expression.hpp"
@@ -368,9 +369,45 @@ PetscErrorCode set_prescribed_values(const Constraints& c, double t, double scal
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode constrain_matrix(const Constraints& c, Mat A) {
+PetscErrorCode dirichlet_mask(DM dm, const std::vector<PetscInt>& rows, Vec global_mask,
+                              std::vector<double>* local_mask) {
   PetscFunctionBeginUser;
-  PetscCall(MatZeroRowsColumns(A, PetscInt(c.rows.size()), c.rows.data(), 1.0, nullptr, nullptr));
+  PetscCall(VecSet(global_mask, 1.0));
+  PetscInt lo;
+  PetscCall(VecGetOwnershipRange(global_mask, &lo, nullptr));
+  PetscScalar* m;
+  PetscCall(VecGetArray(global_mask, &m));
+  for (PetscInt row : rows) m[row - lo] = 0.0;
+  PetscCall(VecRestoreArray(global_mask, &m));
+  // To the ghosts: a cell masks every prescribed corner DOF, also those another rank owns.
+  Vec ml;
+  PetscCall(DMGetLocalVector(dm, &ml));
+  PetscCall(global_to_local(dm, global_mask, ml));
+  const PetscScalar* a;
+  PetscInt n;
+  PetscCall(VecGetLocalSize(ml, &n));
+  PetscCall(VecGetArrayRead(ml, &a));
+  local_mask->assign(a, a + n);
+  PetscCall(VecRestoreArrayRead(ml, &a));
+  PetscCall(DMRestoreLocalVector(dm, &ml));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode assemble_constrained_matrix(DM dm, const topology::DofLayout& layout,
+                                           const CellData& cells, const OperatorWeights& w,
+                                           const Constraints& c, Mat A) {
+  PetscFunctionBeginUser;
+  // A_e with the rows and columns of prescribed DOFs zeroed, summed (A keeps its pattern:
+  // create_matrix sets MAT_IGNORE_ZERO_ENTRIES false), then 1 on those diagonals: the matrix
+  // of MatZeroRowsColumns(A, rows, 1.0) on the assembled operator, entry for entry.
+  Vec mask;
+  std::vector<double> local_mask;
+  PetscCall(DMGetGlobalVector(dm, &mask));
+  PetscCall(dirichlet_mask(dm, c.rows, mask, &local_mask));
+  FineCells op(layout, cells, w);
+  op.set_mask(std::move(local_mask));
+  PetscCall(assemble(op, mask, A));
+  PetscCall(DMRestoreGlobalVector(dm, &mask));
   PetscFunctionReturn(0);
 }
 

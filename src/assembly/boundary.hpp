@@ -76,13 +76,27 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& layout, const Ce
 /// vertex throws InputError naming its deck line, on every rank (collective).
 PetscErrorCode set_prescribed_values(const Constraints& c, double t, double scale, Vec x);
 
-/// Symmetric elimination of the prescribed rows (doc/theory.md, "Supports and loads"): the rows and
-/// columns of A become identity. Call once per assembly of A.
-PetscErrorCode constrain_matrix(const Constraints& c, Mat A);
+/// The Dirichlet mask of the prescribed rows, the one definition of which DOFs the
+/// constrained operator eliminates (the assembled matrix here, the multigrid's fine level):
+/// 1 free, 0 on `rows` (owned, global DOF indices), as `global_mask`, a global vector of
+/// `dm` (the identity rows of assembly::assemble and apply), and as `local_mask`, per local
+/// DOF of the DM, owned and ghosts (FineCells::set_mask: the zeroed rows and columns).
+/// Collective on the DM.
+PetscErrorCode dirichlet_mask(DM dm, const std::vector<PetscInt>& rows, Vec global_mask,
+                              std::vector<double>* local_mask);
 
-/// The right-hand side that matches constrain_matrix: b_free -= A_free,fixed u0 and
-/// b_fixed = u0, where the action of the unconstrained A is taken element by element.
-/// u0 = scale * prescribed values at time t.
+/// Zeroes A (create_matrix) and assembles the constrained operator, the symmetric elimination
+/// of the prescribed rows (doc/theory.md, "Supports and loads"): w_K K^ + w_M M with the rows
+/// and columns of c.rows those of the identity. It is assembly::assemble of the fine cells
+/// masked by dirichlet_mask, the operator the multigrid's fine level applies, with A's nonzero
+/// pattern kept (zeros stay entries). Call at every assembly of A.
+PetscErrorCode assemble_constrained_matrix(DM dm, const topology::DofLayout& layout,
+                                           const CellData& cells, const OperatorWeights& w,
+                                           const Constraints& c, Mat A);
+
+/// The right-hand side that matches the constrained operator (assemble_constrained_matrix):
+/// b_free -= A_free,fixed u0 and b_fixed = u0, where the action of the unconstrained A is
+/// taken element by element. u0 = scale * prescribed values at time t.
 PetscErrorCode constrain_rhs(DM dm, const topology::DofLayout& layout, const CellData& cells,
                              const OperatorWeights& w, const Constraints& c, double t, double scale,
                              Vec b);

@@ -124,8 +124,11 @@ HEXCUT_HD inline void fine_cell_matrix(const FineCellData& d, std::int32_t e, do
   const std::int32_t* corners = d.corners + 8 * std::int64_t(e);
   double m[24];
   element::gather_cell(d.mask, corners, m);
+  // Zeroed, not multiplied by the mask: a negative entry times 0 is -0, and the assembled
+  // constrained matrix is to be the symmetric elimination's (+0) bit for bit.
   for (int r = 0; r < 24; ++r)
-    for (int c = 0; c < 24; ++c) A[24 * r + c] *= m[r] * m[c];
+    for (int c = 0; c < 24; ++c)
+      if (m[r] == 0.0 || m[c] == 0.0) A[24 * r + c] = 0.0;
 }
 
 }  // namespace hexcut::assembly

@@ -9,7 +9,6 @@
 
 #include <vector>
 
-#include "common/petsc_check.hpp"
 #include "element/fine_cell.hpp"
 #include "lattice/lattice.hpp"
 #include "topology/dof_layout.hpp"
@@ -102,27 +101,36 @@ PetscErrorCode reference_positions(DM dm, const lattice::Lattice& lattice,
 /// Scatter a global vector to a local array (owned + ghosts), through the DM.
 PetscErrorCode global_to_local(DM dm, Vec global, Vec local);
 
-/// Read access to the local (owned + ghost) values of a global vector of `dm` for the
-/// scope: a local vector borrowed from the DM, filled by global_to_local. Throws
-/// std::runtime_error (check_petsc) when PETSc fails. Collective on the DM.
+/// Read access to the local (owned + ghost) values of a global vector of a DM for the
+/// scope: a local vector borrowed from the DM, filled by global_to_local. PETSc's way rather
+/// than a constructor that borrows: a constructor cannot return PETSc's error code (it would
+/// have to throw, a second error path beside PetscCall), so the object is declared first and
+/// get() borrows and fills, PetscCall(values.get(dm, u)); the destructor gives back what
+/// get() borrowed, on every way out of the scope. Collective on the DM.
 class LocalValues {
  public:
-  LocalValues(DM dm, Vec global) : dm_(dm) {
-    check_petsc(DMGetLocalVector(dm_, &l_), "DMGetLocalVector");
-    check_petsc(global_to_local(dm_, global, l_), "global_to_local");
-    check_petsc(VecGetArrayRead(l_, &a_), "VecGetArrayRead");
-  }
+  LocalValues() = default;
   ~LocalValues() {
-    VecRestoreArrayRead(l_, &a_);
-    DMRestoreLocalVector(dm_, &l_);
+    if (a_) VecRestoreArrayRead(l_, &a_);
+    if (l_) DMRestoreLocalVector(dm_, &l_);
   }
   LocalValues(const LocalValues&) = delete;
   LocalValues& operator=(const LocalValues&) = delete;
-  /// 3 values per local vertex copy, in the layout's local order.
+  /// Borrows a local vector of `dm` and fills it with the local values of `global` (once).
+  PetscErrorCode get(DM dm, Vec global) {
+    PetscFunctionBeginUser;
+    PetscCheck(!l_, PETSC_COMM_SELF, PETSC_ERR_ORDER, "LocalValues::get called twice");
+    dm_ = dm;
+    PetscCall(DMGetLocalVector(dm_, &l_));
+    PetscCall(global_to_local(dm_, global, l_));
+    PetscCall(VecGetArrayRead(l_, &a_));
+    PetscFunctionReturn(0);
+  }
+  /// 3 values per local vertex copy, in the layout's local order (after get()).
   const PetscScalar* data() const { return a_; }
 
  private:
-  DM dm_;
+  DM dm_ = nullptr;
   Vec l_ = nullptr;
   const PetscScalar* a_ = nullptr;
 };

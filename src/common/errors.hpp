@@ -19,7 +19,9 @@ class InputError : public std::runtime_error {
       : std::runtime_error(file + ":" + std::to_string(line) + ": " + message) {}
 };
 
-/// A solve that diverged or did not converge within its limits. Exit code 3.
+/// A solve that diverged or did not converge within its limits. Exit code 3. Below src/app
+/// such a failure is a PETSC_ERR_NOT_CONVERGED error code; the app's boundary
+/// (throw_on_petsc_error, common/petsc_check.hpp) turns it into this.
 class SolverError : public std::runtime_error {
  public:
   explicit SolverError(const std::string& message) : std::runtime_error(message) {}

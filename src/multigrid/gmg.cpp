@@ -9,6 +9,7 @@
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
+#include "assembly/boundary.hpp"
 #include "assembly/fine_cells.hpp"
 #include "multigrid/kernels.hpp"
 
@@ -45,21 +46,6 @@ PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
 }
 
 }  // namespace
-
-/// The level-0 mask of the local copies (owned + ghosts) from the global mask.
-PetscErrorCode Multigrid::local_mask(std::vector<double>* m) {
-  PetscFunctionBeginUser;
-  auto& d = *data_[0];
-  PetscCall(DMGlobalToLocalBegin(d.dm, d.mask, INSERT_VALUES, d.xl));
-  PetscCall(DMGlobalToLocalEnd(d.dm, d.mask, INSERT_VALUES, d.xl));
-  const PetscScalar* ml;
-  PetscInt n;
-  PetscCall(VecGetLocalSize(d.xl, &n));
-  PetscCall(VecGetArrayRead(d.xl, &ml));
-  m->assign(ml, ml + n);
-  PetscCall(VecRestoreArrayRead(d.xl, &ml));
-  PetscFunctionReturn(0);
-}
 
 Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
                      const topology::VertexCopies& copies, const topology::Partition& partition,
@@ -250,17 +236,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     fine_op_->set_weights(w);
   }
   if (full) {
-    // Level 0 mask from the prescribed rows, then to the ghosts.
+    // Level 0 mask from the prescribed rows, as the assembled path's (assembly/boundary.hpp).
     built_rows_ = constrained_rows;
-    PetscCall(VecSet(d0.mask, 1.0));
-    PetscInt lo;
-    PetscCall(VecGetOwnershipRange(d0.mask, &lo, nullptr));
-    PetscScalar* m;
-    PetscCall(VecGetArray(d0.mask, &m));
-    for (PetscInt row : constrained_rows) m[row - lo] = 0.0;
-    PetscCall(VecRestoreArray(d0.mask, &m));
     std::vector<double> mask;
-    PetscCall(local_mask(&mask));
+    PetscCall(assembly::dirichlet_mask(d0.dm, constrained_rows, d0.mask, &mask));
     fine_op_->set_mask(std::move(mask));
   }
   mark_dirty_fine_cells(cells, full);

@@ -112,7 +112,6 @@ class Multigrid {
   PetscErrorCode cycle_level(int l, bool zero_guess);
   PetscErrorCode build_diagonal(int l);
   void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
-  PetscErrorCode local_mask(std::vector<double>* mask);
   PetscErrorCode build(const lattice::Lattice& lattice, const topology::VertexCopies& copies,
                        const topology::Partition& partition, const topology::DofLayout& layout,
                        DM fine_dm);

@@ -47,10 +47,10 @@ PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coor
 constexpr double kTrueResidualFactor = 10.0;
 
 /// Solves A x = b (x holds the initial guess; nonzero guesses are used) and records
-/// what happened. Throws SolverError if the solve diverged or did not converge, or when
-/// its true relative residual exceeds kTrueResidualFactor x rtol (except for solves
-/// without a norm, gmg-cycles).
-SolveRecord solve(KSP ksp, Vec b, Vec x);
+/// what happened in `record`. Fails with PETSC_ERR_NOT_CONVERGED (a solver failure, exit 3)
+/// if the solve diverged or did not converge, or when its true relative residual exceeds
+/// kTrueResidualFactor x rtol (except for solves without a norm, gmg-cycles).
+PetscErrorCode solve(KSP ksp, Vec b, Vec x, SolveRecord* record);
 
 std::string reason_string(KSPConvergedReason reason);
 

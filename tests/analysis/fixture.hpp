@@ -17,6 +17,11 @@
 #include "solve/linear_solver.hpp"
 #include "topology/dof_layout.hpp"
 
+/// Calls a PetscErrorCode function through the app's error boundary
+/// (throw_on_petsc_error): a solver failure throws SolverError, an input error InputError,
+/// and any other error a std::runtime_error naming the call.
+#define HEXCUT_CALL(call) ::hexcut::check_petsc((call), #call)
+
 namespace hexcut::testing {
 
 /// Deck + model + simulation + state on a communicator. The deck's solver options are
@@ -33,20 +38,34 @@ struct Job {
   Job(MPI_Comm comm_, const std::string& yaml, int superblock = 8, const char* options = nullptr)
       : comm(comm_) {
     deck = deck::parse_deck(yaml, "test.yaml");
-    check_petsc(PetscOptionsClear(nullptr), "PetscOptionsClear");
-    if (options)
-      check_petsc(PetscOptionsInsertString(nullptr, options), "PetscOptionsInsertString");
-    check_petsc(solve::insert_deck_options(deck.solver), "insert_deck_options");
-    check_petsc(analysis::build_model(comm, deck, superblock, &model), "build_model");
-    sim = std::make_unique<analysis::Simulation>(comm, model, deck);
-    check_petsc(analysis::create_state(model.dm, &state), "create_state");
+    HEXCUT_CALL(PetscOptionsClear(nullptr));
+    if (options) HEXCUT_CALL(PetscOptionsInsertString(nullptr, options));
+    HEXCUT_CALL(solve::insert_deck_options(deck.solver));
+    HEXCUT_CALL(analysis::build_model(comm, deck, superblock, &model));
+    HEXCUT_CALL(analysis::Simulation::create(comm, model, deck, &sim));
+    HEXCUT_CALL(analysis::create_state(model.dm, &state));
   }
   /// Takes the analysis' steps from the current state with analysis::Driver, as the app
   /// does (without output; cuts at t = 0 and the initial acceleration are the caller's, as
   /// Driver::prepare and Driver::begin do them in the app).
   void run(const analysis::DriverHooks& hooks = {}) {
-    analysis::Driver(comm, deck, model, state, sim, hooks).run();
+    HEXCUT_CALL(analysis::Driver(comm, deck, model, state, sim, hooks).run());
   }
+  /// The Simulation's steps and energies of the state, through the boundary.
+  void initial_acceleration() { HEXCUT_CALL(sim->initial_acceleration(state)); }
+  void newmark_step() { HEXCUT_CALL(sim->newmark_step(state)); }
+  double kinetic_energy(const analysis::State& s) const {
+    double e = 0;
+    HEXCUT_CALL(sim->kinetic_energy(s, &e));
+    return e;
+  }
+  double elastic_energy(const analysis::State& s) const {
+    double e = 0;
+    HEXCUT_CALL(sim->elastic_energy(s, &e));
+    return e;
+  }
+  /// Kinetic + strain energy of the job's state.
+  double energy() const { return kinetic_energy(state) + elastic_energy(state); }
 
   ~Job() {
     analysis::destroy_state(&state);
@@ -59,20 +78,17 @@ struct Job {
     const auto& D = model.layout;
     topology::NaturalScatter ns;
     MPI_Comm comm = PetscObjectComm((PetscObject)v);
-    check_petsc(topology::create_natural_scatter(
-                    comm, D.num_global_copies,
-                    std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
-                    D.first_owned_block(), 3, &ns),
-                "natural scatter");
-    check_petsc(VecScatterBegin(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
-                "scatter");
-    check_petsc(VecScatterEnd(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD),
-                "scatter");
+    HEXCUT_CALL(topology::create_natural_scatter(
+        comm, D.num_global_copies,
+        std::vector<std::int32_t>(D.copies.begin(), D.copies.begin() + D.num_owned),
+        D.first_owned_block(), 3, &ns));
+    HEXCUT_CALL(VecScatterBegin(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD));
+    HEXCUT_CALL(VecScatterEnd(ns.scatter, v, ns.natural, INSERT_VALUES, SCATTER_FORWARD));
     VecScatter all;
     Vec seq;
-    check_petsc(VecScatterCreateToAll(ns.natural, &all, &seq), "to all");
-    check_petsc(VecScatterBegin(all, ns.natural, seq, INSERT_VALUES, SCATTER_FORWARD), "scatter");
-    check_petsc(VecScatterEnd(all, ns.natural, seq, INSERT_VALUES, SCATTER_FORWARD), "scatter");
+    HEXCUT_CALL(VecScatterCreateToAll(ns.natural, &all, &seq));
+    HEXCUT_CALL(VecScatterBegin(all, ns.natural, seq, INSERT_VALUES, SCATTER_FORWARD));
+    HEXCUT_CALL(VecScatterEnd(all, ns.natural, seq, INSERT_VALUES, SCATTER_FORWARD));
     const PetscScalar* a;
     PetscInt n;
     VecGetLocalSize(seq, &n);

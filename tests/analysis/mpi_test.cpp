@@ -12,7 +12,7 @@ std::vector<double> solve_on(MPI_Comm comm, const std::string& yaml,
                              PetscInt* iterations = nullptr) {
   Job job(comm, yaml, 4);
   if (job.deck.analysis.type == deck::Analysis::Type::dynamic) {
-    job.sim->initial_acceleration(job.state);
+    job.initial_acceleration();
     job.run();
   } else {
     job.run();

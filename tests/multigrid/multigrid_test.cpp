@@ -2,8 +2,10 @@
 // (matrix-free apply), PETSc's MatPtAP (Galerkin coarse blocks), interpolation
 // consistency, V-cycle symmetry, and convergence of GMG-CG. Runs on 1 or 2 ranks.
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <set>
 
@@ -82,8 +84,8 @@ struct Operators {
     set_rotations(job);
     check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.layout, &A),
                 "create");
-    check_petsc(assembly::assemble_matrix(job.model.layout, job.model.cells, w, A), "assemble");
-    check_petsc(assembly::constrain_matrix(job.model.boundary.constraints, A), "constrain");
+    HEXCUT_CALL(assembly::assemble_constrained_matrix(
+        job.model.dm, job.model.layout, job.model.cells, w, job.model.boundary.constraints, A));
     job.sim->multigrid()->update(job.model.cells, w, job.model.boundary.constraints.rows);
   }
   ~Operators() { MatDestroy(&A); }
@@ -105,11 +107,45 @@ double matrix_free_difference(Operators& ops) {
 
 class EveryWeighting : public ::testing::TestWithParam<int> {};
 
+const assembly::OperatorWeights kWeights[3] = {
+    {1.0, 0.0, true}, {1.7, 40.0, true}, {1.2, 25.0, false}};
+
 TEST_P(EveryWeighting, MatrixFreeApplyEqualsAssembledMatrix) {
-  const assembly::OperatorWeights weights[3] = {
-      {1.0, 0.0, true}, {1.7, 40.0, true}, {1.2, 25.0, false}};
-  Operators ops(kBlock, weights[GetParam()]);
+  Operators ops(kBlock, kWeights[GetParam()]);
   EXPECT_LT(matrix_free_difference(ops), 1e-12);
+}
+
+TEST_P(EveryWeighting, ConstrainedMatrixIsTheEliminationOfTheAssembledOperator) {
+  // The masked assembly (assembly::assemble_constrained_matrix, the multigrid's Dirichlet
+  // mask) gives the matrix that symmetric elimination of the assembled operator gives
+  // (MatZeroRowsColumns, 1 on the diagonal): the same nonzero pattern, the same values bit
+  // for bit, ghost DOFs of a rank included.
+  Operators ops(kBlock, kWeights[GetParam()]);
+  const auto& M = ops.job.model;
+  Mat B;
+  HEXCUT_CALL(assembly::create_matrix(PETSC_COMM_WORLD, M.copies, M.layout, &B));
+  HEXCUT_CALL(assembly::assemble_matrix(M.layout, M.cells, ops.w, B));
+  const auto& rows = M.boundary.constraints.rows;
+  HEXCUT_CALL(MatZeroRowsColumns(B, PetscInt(rows.size()), rows.data(), 1.0, nullptr, nullptr));
+  PetscInt lo, hi;
+  MatGetOwnershipRange(B, &lo, &hi);
+  std::int64_t differ = 0, entries = 0;
+  for (PetscInt r = lo; r < hi; ++r) {
+    PetscInt na, nb;
+    const PetscInt *ca, *cb;
+    const PetscScalar *va, *vb;
+    MatGetRow(ops.A, r, &na, &ca, &va);
+    MatGetRow(B, r, &nb, &cb, &vb);
+    entries += nb;
+    if (na != nb || !std::equal(ca, ca + na, cb) ||
+        std::memcmp(va, vb, sizeof(PetscScalar) * std::size_t(na)) != 0)
+      ++differ;
+    MatRestoreRow(B, r, &nb, &cb, &vb);
+    MatRestoreRow(ops.A, r, &na, &ca, &va);
+  }
+  MatDestroy(&B);
+  EXPECT_GT(entries, 0);
+  EXPECT_EQ(differ, 0) << "rows that differ of " << hi - lo;
 }
 
 INSTANTIATE_TEST_SUITE_P(Weights, EveryWeighting, ::testing::Values(0, 1, 2));
@@ -221,9 +257,9 @@ TEST(Multigrid, RebuildToleranceKeepsCoarseBlocksButNotTheFineOperator) {
   EXPECT_EQ(mg->rebuilt_cells(1), 0);
   EXPECT_EQ(mg->rebuilt_cells(2), 0);
   // The fine operator is the current one: equal to the matrix assembled now.
-  check_petsc(assembly::assemble_matrix(ops.job.model.layout, ops.job.model.cells, w, ops.A),
-              "assemble");
-  check_petsc(assembly::constrain_matrix(ops.job.model.boundary.constraints, ops.A), "constrain");
+  HEXCUT_CALL(assembly::assemble_constrained_matrix(ops.job.model.dm, ops.job.model.layout,
+                                                    ops.job.model.cells, w,
+                                                    ops.job.model.boundary.constraints, ops.A));
   EXPECT_LT(matrix_free_difference(ops), 1e-12);
 }
 
@@ -559,8 +595,8 @@ TEST(Multigrid, CellsWithoutAKindMatchTheirFormedStiffness) {
   // The multigrid's fine operator is the constrained one: compare on free DOFs only.
   auto* mg = job.sim->multigrid();
   check_petsc(mg->update(C, w, job.model.boundary.constraints.rows), "update");
-  check_petsc(assembly::assemble_matrix(D, formed, w, A), "assemble formed");
-  check_petsc(assembly::constrain_matrix(job.model.boundary.constraints, A), "constrain");
+  HEXCUT_CALL(
+      assembly::assemble_constrained_matrix(dm, D, formed, w, job.model.boundary.constraints, A));
   MatMult(A, x, y_ref);
   check_petsc(mg->apply_fine(x, y), "apply_fine");
   EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "multigrid fine operator";
