@@ -260,6 +260,14 @@ __global__ void check_galerkin_accumulate(const double* children, double* parent
   mg::pack_symmetric(A, packed + mg::kPackedSize * C);
 }
 
+/// One child per thread: its general Galerkin product into its own output block.
+__global__ void check_galerkin_accumulate_general(const double* A, const double* W,
+                                                  double* parent) {
+  const int e = thread_index();
+  mg::galerkin_accumulate_general(A + el::kElementMatrixSize * e, W + el::kElementMatrixSize * e,
+                                  parent + el::kElementMatrixSize * e);
+}
+
 __global__ void check_packed_index(int* index) {
   const int t = thread_index();
   index[t] = mg::packed_index(t / 24, t % 24);

@@ -80,6 +80,14 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
   levels_ = hierarchy::build_hierarchy(topology::graph_from_lattice(lattice), copies, partition,
                                        layout, opt_.hierarchy);
   const int L = int(levels_.size());
+  // Irregular coarse cells: where energy-minimizing interpolation replaces trilinear.
+  irregular_.assign(L, {});
+  rows_.assign(std::max(0, L - 1), {});
+  energy_stats_.assign(std::max(0, L - 1), {});
+  for (int l = 1; l < L; ++l)
+    irregular_[l] = multigrid::irregular_cells(levels_[l - 1], levels_[l], irregular_[l - 1],
+                                               l == 1 ? lattice.youngs : std::vector<double>{},
+                                               l == 1 ? lattice.poisson : std::vector<double>{});
   for (int l = 0; l < L; ++l) {
     auto d = std::make_unique<LevelData>();
     const auto& lev = levels_[l];
@@ -251,8 +259,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
     const auto& fd = *data_[l - 1];
+    // The interpolation to level l-1 depends on its operator: recomputed on full rebuilds
+    // (kept across rotation-only updates, whose operators differ by rotations only).
+    if (full) PetscCall(build_interpolation(l - 1));
     rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
-                                     l == 1 ? d0.dirty : fd.stored->dirty());
+                                     l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
     if (l == 1) {
       // The rotations the rebuilt blocks saw: those of all their children.
       const auto& dirty = d.stored->dirty();
@@ -495,6 +506,24 @@ PetscErrorCode Multigrid::smooth(int l, Vec b, Vec x, int sweeps, bool reverse) 
     for (int s = 0; s < sweeps; ++s) PetscCall(gauss_seidel(l, b, x, reverse));
   }
   PetscCall(PetscLogEventEnd(ev_smooth_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::build_interpolation(int l) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& irregular = irregular_[l + 1];
+  int any = opt_.interpolation == Interpolation::energy &&
+            std::find(irregular.begin(), irregular.end(), char(1)) != irregular.end();
+  if (!any) {
+    rows_[l] = InterpolationRows{};
+    energy_stats_[l] = EnergyStats{};
+    PetscFunctionReturn(0);  // the trilinear MAIJ of build() stays
+  }
+  PetscCall(energy_interpolation(comm_, levels_[l], levels_[l + 1], irregular, *d.op, d.diag_inv,
+                                 d.mask, opt_.energy_iterations, &rows_[l], &energy_stats_[l]));
+  PetscCall(MatDestroy(&d.P));
+  PetscCall(interpolation_matrix(comm_, levels_[l], levels_[l + 1], rows_[l], &d.P));
   PetscFunctionReturn(0);
 }
 

@@ -23,6 +23,7 @@
 
 #include "assembly/fine_cells.hpp"
 #include "assembly/operator.hpp"
+#include "multigrid/energy_interpolation.hpp"
 #include "multigrid/stored_cells.hpp"
 #include "hierarchy/hierarchy.hpp"
 #include "lattice/lattice.hpp"
@@ -30,6 +31,9 @@
 namespace hexcut::multigrid {
 
 enum class Smoother { gauss_seidel, chebyshev };
+
+/// Interpolation between levels (doc/theory.md, "Coarse spaces after cuts and on thin pieces").
+enum class Interpolation { trilinear, energy };
 
 struct Options {
   hierarchy::HierarchyOptions hierarchy;
@@ -48,6 +52,10 @@ struct Options {
   // Rotations are cell-wise similarity transforms, so lambda_max(D^-1 A) drifts slowly:
   // rotation-only updates re-estimate it only every eig_every-th time.
   int eig_every = 10;
+  // Energy-minimizing rows where coarse cells are irregular (cut, partial, material jump),
+  // trilinear elsewhere; computed at each full rebuild, kept across rotation-only updates.
+  Interpolation interpolation = Interpolation::energy;
+  int energy_iterations = 4;
   bool view = false;
 };
 
@@ -73,6 +81,9 @@ class Multigrid {
                         const std::vector<PetscInt>& constrained_rows);
   /// Makes the next update() rebuild everything.
   void invalidate() { built_ = false; }
+  /// What the energy-minimizing interpolation to level l did at the last full rebuild
+  /// (rows = 0: trilinear; doc/theory.md, "Coarse spaces after cuts and on thin pieces").
+  const EnergyStats& energy_stats(int l) const { return energy_stats_[l]; }
   /// Cells of level l (on this rank) whose operator data the last update() rebuilt.
   std::int64_t rebuilt_cells(int l) const { return rebuilt_[l]; }
 
@@ -117,6 +128,7 @@ class Multigrid {
                        DM fine_dm);
   PetscErrorCode estimate_lambda_max(int l);
   PetscErrorCode build_coarsest();
+  PetscErrorCode build_interpolation(int l);
 
   MPI_Comm comm_;
   Options opt_;
@@ -130,6 +142,9 @@ class Multigrid {
   std::vector<PetscInt> built_rows_;
   int updates_since_estimate_ = 0;
   std::vector<std::int64_t> rebuilt_;
+  std::vector<std::vector<char>> irregular_;  // per level l >= 1: its irregular cells (canonical)
+  std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
+  std::vector<EnergyStats> energy_stats_;
   Mat shell_ = nullptr;
   KSP coarse_ksp_ = nullptr;
   Mat coarse_matrix_ = nullptr;

@@ -52,6 +52,7 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   const char* hierarchies[] = {"components", "naive"};
   const char* smoothers[] = {"gs", "chebyshev"};
   const char* cycles[] = {"v", "w"};
+  const char* interpolations[] = {"trilinear", "energy"};
   PetscInt choice;
   PetscOptionsHeadBegin(PetscOptionsObject, "hexcut geometric multigrid (doc/user-guide.md)");
   PetscCall(PetscOptionsInt("-gmg_levels", "Number of levels (0: automatic, from -gmg_coarse_dofs)",
@@ -117,6 +118,22 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   if (set) {
     PetscCheck(n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_eig_every must be >= 1");
     o.eig_every = int(n);
+  }
+  choice = o.interpolation == Interpolation::energy ? 1 : 0;
+  PetscCall(PetscOptionsEList("-gmg_interpolation",
+                              "Interpolation: energy (energy-minimizing rows where coarse cells are "
+                              "cut, partial or span a material jump; trilinear elsewhere) or "
+                              "trilinear everywhere",
+                              "", interpolations, 2, interpolations[choice], &choice, &set));
+  if (set) o.interpolation = choice == 1 ? Interpolation::energy : Interpolation::trilinear;
+  PetscCall(PetscOptionsInt("-gmg_energy_iterations",
+                            "Energy-minimizing interpolation: conjugate-gradient iterations from "
+                            "the trilinear rows",
+                            "", o.energy_iterations, &n, &set));
+  if (set) {
+    PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_energy_iterations must be >= 0");
+    o.energy_iterations = int(n);
   }
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,

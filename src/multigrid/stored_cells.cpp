@@ -13,13 +13,17 @@ StoredCells::StoredCells(const topology::DofLayout& layout)
 
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
                                    const assembly::CellPositions& fine_position,
-                                   const Children& children, const std::vector<char>& fine_dirty) {
+                                   const Children& children, const std::vector<char>& fine_dirty,
+                                   const InterpolationRows* rows) {
   // Each block is accumulated in full 24x24 form from its (at most 8) children, then
   // stored packed.
   const std::size_t n = num_cells();
   dirty_.assign(n, 0);
   std::int64_t rebuilt = 0;
-  double child[576], parent[576];
+  double child[576], parent[576], W[576];
+  const bool general = rows && !rows->empty();
+  const auto& fine_corners = fine.layout().cell_corners;
+  const auto& parent_corners = layout().cell_corners;
   for (std::size_t C = 0; C < n; ++C) {
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k)
       if (fine_dirty[children.child[k]]) dirty_[C] = 1;
@@ -30,7 +34,13 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
       const auto e = std::size_t(children.child[k]);
       fine.cell_matrix(e, child);
       const auto& p = fine_position[e];
-      galerkin_accumulate(child, element::parity_octant(p[0], p[1], p[2]), parent);
+      const int octant = element::parity_octant(p[0], p[1], p[2]);
+      if (general && rows->touches(fine_corners[e].data())) {
+        child_interpolation(*rows, fine_corners[e].data(), parent_corners[C].data(), octant, W);
+        galerkin_accumulate_general(child, W, parent);
+      } else {
+        galerkin_accumulate(child, octant, parent);
+      }
     }
     pack_symmetric(parent, &packed_[kPackedSize * C]);
   }

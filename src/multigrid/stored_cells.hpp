@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "assembly/cell_operator.hpp"
+#include "multigrid/energy_interpolation.hpp"
 #include "multigrid/stored_cell_kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -27,10 +28,14 @@ class StoredCells final : public assembly::CellOperator {
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
-  /// octant. Marks the rebuilt cells in dirty() and returns how many there were.
+  /// octant. The interpolation is trilinear, except for children with a corner in `rows`
+  /// (energy-minimizing rows; may be null), whose 24x24 W_c comes from them
+  /// (child_interpolation). Marks the rebuilt cells in dirty() and returns how many there
+  /// were.
   std::int64_t galerkin(const assembly::CellOperator& fine,
                         const assembly::CellPositions& fine_position, const Children& children,
-                        const std::vector<char>& fine_dirty);
+                        const std::vector<char>& fine_dirty,
+                        const InterpolationRows* rows = nullptr);
   /// Per local cell: rebuilt by the last galerkin().
   const std::vector<char>& dirty() const { return dirty_; }
 
