@@ -1,9 +1,9 @@
 #include "multigrid/energy_interpolation.hpp"
 
 #include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "element/trilinear.hpp"
 
@@ -72,12 +72,12 @@ std::vector<char> irregular_cells(const Level& fine, const Level& coarse,
 
 namespace {
 
-constexpr int kSlots = 8;      // coarse copies in a row's pattern, at most
+constexpr int kSlots = 8;         // coarse copies in a row's pattern, at most
 constexpr int kRow = 9 * kSlots;  // numbers per fine copy: 8 3x3 blocks
 
 /// The fine copies whose rows are minimized (region) and their exchange between ranks.
 struct Region {
-  topology::DofLayout layout;         // over region copies: owned, then ghosts
+  topology::DofLayout layout;          // over region copies: owned, then ghosts
   std::vector<std::int32_t> local_of;  // per local fine copy: local region index, or -1
   std::vector<std::int32_t> fine_of;   // per local region copy: local fine copy
   Vec global = nullptr, local = nullptr;
@@ -183,7 +183,9 @@ void project_row(const RowConstraint& c, const double* mask3, double* x) {
 
 // A row is stored as 3 DOF rows of 24 (slot k, coarse component b at 3k + b): the blocks of
 // InterpolationRows are slot-major (9k + 3a + b); these convert.
-inline double& at(double* row, int a, int k, int b) { return row[24 * a + 3 * k + b]; }
+inline double& at(double* row, int a, int k, int b) {
+  return row[24 * a + 3 * k + b];
+}
 
 }  // namespace
 
@@ -266,6 +268,7 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
   // Rigid-mode constraints of the owned rows, positions relative to the row's copy (in
   // fine-level lattice units; a common scale does not change the constraint).
   std::vector<RowConstraint> constraint(nr_owned);
+  std::map<std::vector<int>, Eigen::Matrix<double, 6, 6>> pseudo_inverses;
   for (std::int32_t r = 0; r < nr_owned; ++r) {
     auto& c = constraint[r];
     const auto& xf = fine.copies.vertex[D.copies[R.fine_of[r]]];
@@ -282,19 +285,31 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
       }
       c.slots = k + 1;
     }
-    Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
-    for (int i = 0; i < 3 * c.slots; ++i)
+    // G^+ depends only on the pattern's offsets (small integers): a few shapes in all.
+    // B's rotation columns hold +-y: (e_1 x y)_0 = y_2, (e_2 x y)_1 = y_0, (e_0 x y)_2 = y_1.
+    std::vector<int> key{c.slots};
+    for (int k = 0; k < c.slots; ++k) {
+      key.push_back(int(std::lround(c.B[3 * k + 1][3 + 2])));
+      key.push_back(int(std::lround(c.B[3 * k + 2][3 + 0])));
+      key.push_back(int(std::lround(c.B[3 * k + 0][3 + 1])));
+    }
+    auto found = pseudo_inverses.find(key);
+    if (found == pseudo_inverses.end()) {
+      Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
+      for (int i = 0; i < 3 * c.slots; ++i)
+        for (int k = 0; k < 6; ++k)
+          for (int l = 0; l < 6; ++l) G(k, l) += c.B[i][k] * c.B[i][l];
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(G);
+      const auto& ev = eig.eigenvalues();
+      const double tol = 1e-10 * std::max(1.0, ev.cwiseAbs().maxCoeff());
+      Eigen::Matrix<double, 6, 6> Gi = Eigen::Matrix<double, 6, 6>::Zero();
       for (int k = 0; k < 6; ++k)
-        for (int l = 0; l < 6; ++l) G(k, l) += c.B[i][k] * c.B[i][l];
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(G);
-    const auto& ev = eig.eigenvalues();
-    const double tol = 1e-10 * std::max(1.0, ev.cwiseAbs().maxCoeff());
-    Eigen::Matrix<double, 6, 6> Gi = Eigen::Matrix<double, 6, 6>::Zero();
+        if (ev(k) > tol)
+          Gi += (1.0 / ev(k)) * eig.eigenvectors().col(k) * eig.eigenvectors().col(k).transpose();
+      found = pseudo_inverses.emplace(key, Gi).first;
+    }
     for (int k = 0; k < 6; ++k)
-      if (ev(k) > tol)
-        Gi += (1.0 / ev(k)) * eig.eigenvectors().col(k) * eig.eigenvectors().col(k).transpose();
-    for (int k = 0; k < 6; ++k)
-      for (int l = 0; l < 6; ++l) c.Ginv[k][l] = Gi(k, l);
+      for (int l = 0; l < 6; ++l) c.Ginv[k][l] = found->second(k, l);
   }
 
   // The cells whose corners include region copies, with each corner's slot -> parent corner.
@@ -304,7 +319,8 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
     std::array<std::array<std::int8_t, kSlots>, 8> parent_corner;  // -1: slot unused
   };
   std::vector<std::int32_t> coarse_cell_local(coarse.graph.num_cells(), -1);
-  for (std::size_t C = 0; C < DC.cells.size(); ++C) coarse_cell_local[DC.cells[C]] = std::int32_t(C);
+  for (std::size_t C = 0; C < DC.cells.size(); ++C)
+    coarse_cell_local[DC.cells[C]] = std::int32_t(C);
   std::vector<RegionCell> cells;
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     bool any = false;
@@ -330,13 +346,13 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
 
   // y = Pi_pattern(A Y) on the owned rows: per cell, W from Y's rows (and trilinear weights
   // at corners outside the region when `with_trilinear`), A_e W, kept on the pattern.
-  std::vector<double> Ae(576), W(576), T(576);
+  std::vector<double> Ae(576), W(576), acc;
   auto apply = [&](Vec Yg, bool with_trilinear, Vec out) -> PetscErrorCode {
     PetscFunctionBeginUser;
     PetscCall(to_local(R, Yg));
     const PetscScalar* y;
     PetscCall(VecGetArrayRead(R.local, &y));
-    std::vector<double> acc(std::size_t(kRow) * nr, 0.0);
+    acc.assign(std::size_t(kRow) * nr, 0.0);
     for (const auto& rc : cells) {
       std::fill(W.begin(), W.end(), 0.0);
       const auto* fc = D.cell_corners[rc.e].data();
@@ -359,22 +375,21 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
         }
       }
       op.cell_matrix(std::size_t(rc.e), Ae.data());
-      std::fill(T.begin(), T.end(), 0.0);
-      for (int i = 0; i < 24; ++i)
-        for (int m = 0; m < 24; ++m) {
-          const double a = Ae[24 * i + m];
-          if (a == 0.0) continue;
-          for (int j = 0; j < 24; ++j) T[24 * i + j] += a * W[24 * m + j];
-        }
+      // Rows q of A_e W for the region corners only (the rows kept), each a fixed-size
+      // 3x24 by 24x24 product (set-up only; host code).
+      using M24 = Eigen::Matrix<double, 24, 24, Eigen::RowMajor>;
+      using M3 = Eigen::Matrix<double, 3, 24, Eigen::RowMajor>;
+      const Eigen::Map<const M24> Wm(W.data());
       for (int q = 0; q < 8; ++q) {
         const auto r = R.local_of[fc[q]];
         if (r < 0) continue;
+        const M3 Tq = Eigen::Map<const M3>(&Ae[72 * q]) * Wm;
         double* row = &acc[std::size_t(kRow) * r];
         for (int k = 0; k < kSlots; ++k) {
           const int j = rc.parent_corner[q][k];
           if (j < 0) continue;
           for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) row[24 * a + 3 * k + b] += T[24 * (3 * q + a) + 3 * j + b];
+            for (int b = 0; b < 3; ++b) row[24 * a + 3 * k + b] += Tq(a, 3 * j + b);
         }
       }
     }
@@ -415,7 +430,8 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
       double* zr = za + std::size_t(kRow) * r;
       for (int a = 0; a < 3; ++a)
         for (int i = 0; i < 24; ++i)
-          zr[24 * a + i] = Di[3 * a] * xr[i] + Di[3 * a + 1] * xr[24 + i] + Di[3 * a + 2] * xr[48 + i];
+          zr[24 * a + i] =
+              Di[3 * a] * xr[i] + Di[3 * a + 1] * xr[24 + i] + Di[3 * a + 2] * xr[48 + i];
     }
     PetscCall(VecRestoreArray(z, &za));
     PetscCall(VecRestoreArrayRead(x, &xa));

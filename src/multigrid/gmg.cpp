@@ -6,11 +6,11 @@
 #include <cstring>
 #include <set>
 
+#include "assembly/boundary.hpp"
+#include "assembly/fine_cells.hpp"
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
-#include "assembly/boundary.hpp"
-#include "assembly/fine_cells.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -21,17 +21,18 @@ struct Multigrid::LevelData {
   Vec b = nullptr, x = nullptr, r = nullptr, tmp = nullptr;  // global
   Vec dir = nullptr;                                         // global: Chebyshev direction
   Vec xl = nullptr, yl = nullptr;                            // local
-  Vec mask = nullptr;                   // global: 1 free, 0 prescribed or dead
-  const assembly::CellOperator* op = nullptr;  // level 0: fine_op_; else *stored
-  std::unique_ptr<StoredCells> stored;         // l >= 1: Galerkin blocks
-  Children children;                           // l >= 1: local children per cell
-  std::vector<double> diag_inv;                // 9 per owned copy
-  std::vector<int> colour;                     // per owned copy
-  std::vector<std::int32_t> colour_list[8];    // owned copies of each colour
-  std::vector<char> dirty;                     // level 0: per local cell, rebuilt by update()
-  assembly::CellPositions cell_pos;            // per local cell
-  std::vector<std::int32_t> local_cell;        // canonical cell -> local index, -1
-  Mat P = nullptr;  // interpolation from level l+1 (3 DOFs per copy)
+  Vec mask = nullptr;                                        // global: 1 free, 0 prescribed or dead
+  const assembly::CellOperator* op = nullptr;                // level 0: fine_op_; else *stored
+  std::unique_ptr<StoredCells> stored;                       // l >= 1: Galerkin blocks
+  Children children;                                         // l >= 1: local children per cell
+  std::vector<double> diag_inv;                              // 9 per owned copy
+  std::vector<int> colour;                                   // per owned copy
+  std::vector<std::int32_t> colour_list[8];                  // owned copies of each colour
+  std::vector<char> dirty;               // level 0: per local cell, rebuilt by update()
+  assembly::CellPositions cell_pos;      // per local cell
+  std::vector<std::int32_t> local_cell;  // canonical cell -> local index, -1
+  Mat P = nullptr;                       // interpolation from level l+1 (3 DOFs per copy)
+  std::unique_ptr<Schwarz> schwarz;      // Chebyshev's preconditioner where uses_schwarz(l)
   double lambda_max = 0.0;
 };
 
@@ -53,18 +54,22 @@ Multigrid::Multigrid(MPI_Comm comm, const lattice::Lattice& lattice,
     : comm_(comm), opt_(options) {
   // One class and one set of events for the process, however many hierarchies a run
   // builds (one per cut), so -log_view sums them.
-  static const std::array<PetscLogEvent, 3> events = [] {
+  static const std::array<PetscLogEvent, 5> events = [] {
     PetscClassId id;
-    std::array<PetscLogEvent, 3> e{};
+    std::array<PetscLogEvent, 5> e{};
     check_petsc(PetscClassIdRegister("hexcut-gmg", &id), "class id");
     check_petsc(PetscLogEventRegister("gmgSetup", id, &e[0]), "event");
     check_petsc(PetscLogEventRegister("gmgCycle", id, &e[1]), "event");
     check_petsc(PetscLogEventRegister("gmgSmooth", id, &e[2]), "event");
+    check_petsc(PetscLogEventRegister("gmgInterpSetup", id, &e[3]), "event");
+    check_petsc(PetscLogEventRegister("gmgSchwarzSetup", id, &e[4]), "event");
     return e;
   }();
   ev_setup_ = events[0];
   ev_apply_ = events[1];
   ev_smooth_ = events[2];
+  ev_interp_ = events[3];
+  ev_schwarz_ = events[4];
   check_petsc(build(lattice, copies, partition, layout, fine_dm), "gmg: building the hierarchy");
 }
 
@@ -150,13 +155,13 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     const auto& fine = levels_[l].layout;
     const auto& coarse = levels_[l + 1].layout;
     Mat P;
-    PetscCall(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE,
-                             PETSC_DETERMINE, 8, nullptr, 8, nullptr, &P));
+    PetscCall(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE, PETSC_DETERMINE,
+                           8, nullptr, 8, nullptr, &P));
     for (std::size_t i = 0; i < I.fine.size(); ++i) {
       const PetscInt row = fine.global_block[I.fine[i]];
       for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j)
-        PetscCall(
-            MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j], INSERT_VALUES));
+        PetscCall(MatSetValue(P, row, coarse.global_block[I.coarse[i][j]], I.weight[i][j],
+                              INSERT_VALUES));
     }
     PetscCall(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY));
     PetscCall(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY));
@@ -165,7 +170,7 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
   }
   const auto& D0 = levels_[0].layout;
   PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
-                             PETSC_DETERMINE, this, &shell_));
+                           PETSC_DETERMINE, this, &shell_));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
   PetscCall(MatSetBlockSize(shell_, 3));
   PetscCall(MatSetOption(shell_, MAT_SYMMETRIC, PETSC_TRUE));
@@ -253,6 +258,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   mark_dirty_fine_cells(cells, full);
   PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
+  if (uses_schwarz(0)) PetscCall(build_schwarz(0));
   // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child.
   if (built_rotation_.size() != cells.rotation.size())
     built_rotation_.assign(cells.rotation.size(), 0.0);
@@ -278,6 +284,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     int changed = rebuilt_[l] > 0;
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_));
     if (changed) PetscCall(build_diagonal(l));
+    if (changed && uses_schwarz(l)) PetscCall(build_schwarz(l));
     if (l == L - 1 && changed) PetscCall(build_coarsest());
   }
   if (L == 1) PetscCall(build_coarsest());
@@ -436,6 +443,50 @@ PetscErrorCode block_jacobi(const std::vector<double>& diag_inv, Vec x, Vec y) {
 
 }  // namespace
 
+PetscErrorCode Multigrid::build_schwarz(int l) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  PetscCall(PetscLogEventBegin(ev_schwarz_, 0, 0, 0, 0));
+  d.schwarz = std::make_unique<Schwarz>();
+  PetscCall(Schwarz::create(comm_, d.dm, levels_[l], levels_[l + 1], irregular_[l + 1], *d.op,
+                            d.mask, d.schwarz.get()));
+  PetscCall(PetscLogEventEnd(ev_schwarz_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+std::int64_t Multigrid::schwarz_patches(int l) const {
+  return data_[l]->schwarz ? data_[l]->schwarz->num_patches() : 0;
+}
+
+bool Multigrid::has_irregular_parents(int l) const {
+  // A decision every rank takes alike (the hierarchy and its irregular cells are replicated).
+  if (l + 1 >= num_levels()) return false;
+  const auto& irr = irregular_[l + 1];
+  return std::find(irr.begin(), irr.end(), char(1)) != irr.end();
+}
+
+bool Multigrid::uses_schwarz(int l) const {
+  return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 && l >= opt_.schwarz_from &&
+         has_irregular_parents(l);
+}
+
+PetscErrorCode Multigrid::precondition(int l, Vec r, Vec z) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  if (d.schwarz) {
+    PetscCall(d.schwarz->apply(d.diag_inv, d.mask, r, z));
+  } else {
+    PetscCall(block_jacobi(d.diag_inv, r, z));
+  }
+  PetscFunctionReturn(0);
+}
+
+int Multigrid::degree(int l, int sweeps) const {
+  // Only where coarse cells are irregular: a solid block's cycle stays as it was.
+  if (sweeps == 0 || !has_irregular_parents(l)) return sweeps;
+  return std::min(8, std::max(sweeps, int(std::lround(sweeps * std::pow(opt_.degree_growth, l)))));
+}
+
 PetscErrorCode Multigrid::estimate_lambda_max(int l) {
   PetscFunctionBeginUser;
   // Power iteration on D^{-1} A from a pseudo-random start vector that is a function of
@@ -461,7 +512,7 @@ PetscErrorCode Multigrid::estimate_lambda_max(int l) {
     PetscReal nv;
     PetscCall(VecNormalize(v, &nv));
     PetscCall(apply_level_impl(l, v, w));
-    PetscCall(block_jacobi(d.diag_inv, w, v));
+    PetscCall(precondition(l, w, v));
     PetscReal nw;
     PetscCall(VecNorm(v, NORM_2, &nw));
     lambda = nw;
@@ -481,14 +532,14 @@ PetscErrorCode Multigrid::chebyshev(int l, Vec b, Vec x, int degree) {
   Vec r = d.r, z = d.tmp, dir = d.dir;
   PetscCall(apply_level_impl(l, x, r));
   PetscCall(VecAYPX(r, -1.0, b));
-  PetscCall(block_jacobi(d.diag_inv, r, z));
+  PetscCall(precondition(l, r, z));
   PetscCall(VecAXPBY(dir, 1.0 / theta, 0.0, z));
   for (int i = 0; i < degree; ++i) {
     PetscCall(VecAXPY(x, 1.0, dir));
     if (i + 1 == degree) break;
     PetscCall(apply_level_impl(l, x, r));
     PetscCall(VecAYPX(r, -1.0, b));
-    PetscCall(block_jacobi(d.diag_inv, r, z));
+    PetscCall(precondition(l, r, z));
     const double rho = 1.0 / (2.0 * sigma - rho_old);
     PetscCall(VecAXPBY(dir, 2.0 * rho / delta, rho * rho_old, z));
     rho_old = rho;
@@ -501,7 +552,7 @@ PetscErrorCode Multigrid::smooth(int l, Vec b, Vec x, int sweeps, bool reverse) 
   if (sweeps == 0) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(ev_smooth_, 0, 0, 0, 0));
   if (opt_.smoother == Smoother::chebyshev) {
-    PetscCall(chebyshev(l, b, x, sweeps));
+    PetscCall(chebyshev(l, b, x, degree(l, sweeps)));
   } else {
     for (int s = 0; s < sweeps; ++s) PetscCall(gauss_seidel(l, b, x, reverse));
   }
@@ -513,17 +564,19 @@ PetscErrorCode Multigrid::build_interpolation(int l) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& irregular = irregular_[l + 1];
-  int any = opt_.interpolation == Interpolation::energy &&
+  int any = opt_.interpolation == Interpolation::energy && l >= opt_.energy_from &&
             std::find(irregular.begin(), irregular.end(), char(1)) != irregular.end();
   if (!any) {
     rows_[l] = InterpolationRows{};
     energy_stats_[l] = EnergyStats{};
     PetscFunctionReturn(0);  // the trilinear MAIJ of build() stays
   }
+  PetscCall(PetscLogEventBegin(ev_interp_, 0, 0, 0, 0));
   PetscCall(energy_interpolation(comm_, levels_[l], levels_[l + 1], irregular, *d.op, d.diag_inv,
                                  d.mask, opt_.energy_iterations, &rows_[l], &energy_stats_[l]));
   PetscCall(MatDestroy(&d.P));
   PetscCall(interpolation_matrix(comm_, levels_[l], levels_[l + 1], rows_[l], &d.P));
+  PetscCall(PetscLogEventEnd(ev_interp_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 
@@ -621,6 +674,8 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
   PetscCall(PetscViewerASCIIPrintf(
       viewer, "  level      cells  duplicated      DOFs   nnz-equiv     held MiB   rebuilt\n"));
   double total_bytes = 0.0, fine_nnz = 0.0, fine_dofs = 1.0;
+  std::int64_t energy_rows = 0;
+  std::vector<std::int64_t> patches(num_levels(), 0);
   for (int l = 0; l < num_levels(); ++l) {
     const auto& lev = levels_[l];
     // Cells that share their position with another cell (components of one block).
@@ -651,7 +706,23 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
     const double op = l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * 8.0;
     const double transfer = l + 1 < num_levels() ? copies * 8.0 * 12.0 : 0.0;
-    const double bytes = op + copies * 9.0 * 8.0 + transfer + 8.0 * 3.0 * copies * 8.0;
+    // Energy-minimized rows (8 3x3 blocks + 8 coarse indices each, on the copies' owners and
+    // ghosts) and the Schwarz patches' packed Cholesky factors with their DOF lists.
+    std::int64_t extra[3] = {0, 0, 0};  // bytes, rows, patches
+    if (l + 1 < num_levels()) {
+      extra[0] = std::int64_t(rows_[l].block.size() * 8 + rows_[l].coarse.size() * 32);
+      extra[1] = energy_stats_[l].rows;
+    }
+    if (data_[l]->schwarz) {
+      extra[0] += std::int64_t(data_[l]->schwarz->stored_numbers() * 8);
+      extra[2] = data_[l]->schwarz->num_patches();
+    }
+    MPI_Allreduce(MPI_IN_PLACE, extra, 1, MPI_INT64_T, MPI_SUM, comm_);
+    MPI_Allreduce(MPI_IN_PLACE, extra + 2, 1, MPI_INT64_T, MPI_SUM, comm_);
+    const double bytes =
+        op + copies * 9.0 * 8.0 + transfer + 8.0 * 3.0 * copies * 8.0 + double(extra[0]);
+    energy_rows += extra[1];
+    patches[l] = extra[2];
     std::int64_t rebuilt = rebuilt_.empty() ? 0 : rebuilt_[l];
     MPI_Allreduce(MPI_IN_PLACE, &rebuilt, 1, MPI_INT64_T, MPI_SUM, comm_);
     total_bytes += bytes;
@@ -668,6 +739,23 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       PetscCall(PetscViewerASCIIPrintf(viewer, " %.4f", data_[l]->lambda_max));
     PetscCall(PetscViewerASCIIPrintf(viewer, "\n"));
   }
+  PetscCall(
+      PetscViewerASCIIPrintf(viewer, "  interpolation %s: %lld energy-minimized rows",
+                             opt_.interpolation == Interpolation::energy ? "energy" : "trilinear",
+                             (long long)energy_rows));
+  for (int l = 0; l + 1 < num_levels(); ++l)
+    if (energy_stats_[l].rows > 0)
+      PetscCall(PetscViewerASCIIPrintf(viewer, "; level %d: trace(P^T A P) %.3g -> %.3g", l,
+                                       energy_stats_[l].energy_before,
+                                       energy_stats_[l].energy_after));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "\n  Chebyshev degree and preconditioner per level:"));
+  for (int l = 0; l + 1 < num_levels(); ++l)
+    PetscCall(PetscViewerASCIIPrintf(viewer, " %d/%s", degree(l, opt_.presmooth),
+                                     patches[l] > 0 ? "Schwarz" : "Jacobi"));
+  PetscCall(PetscViewerASCIIPrintf(viewer, " (Schwarz patches:"));
+  for (int l = 0; l + 1 < num_levels(); ++l)
+    PetscCall(PetscViewerASCIIPrintf(viewer, " %lld", (long long)patches[l]));
+  PetscCall(PetscViewerASCIIPrintf(viewer, ")\n"));
   PetscCall(PetscViewerASCIIPrintf(
       viewer,
       "  total %.1f MiB = %.0f bytes/DOF; an assembled AIJ matrix of level 0 alone "

@@ -75,18 +75,21 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                               "coarse cells) or naive (one coarse cell per block)",
                               "", hierarchies, 2, hierarchies[choice], &choice, &set));
   if (set)
-    o.hierarchy.mode = choice == 1 ? hierarchy::Coarsening::naive : hierarchy::Coarsening::components;
+    o.hierarchy.mode =
+        choice == 1 ? hierarchy::Coarsening::naive : hierarchy::Coarsening::components;
   choice = o.smoother == Smoother::gauss_seidel ? 0 : 1;
   PetscCall(PetscOptionsEList("-gmg_smoother",
                               "Smoother: gs (8-colour point-block Gauss-Seidel) or chebyshev "
                               "(on point-block Jacobi)",
                               "", smoothers, 2, smoothers[choice], &choice, &set));
   if (set) o.smoother = choice == 0 ? Smoother::gauss_seidel : Smoother::chebyshev;
-  PetscCall(PetscOptionsInt("-gmg_presmooth", "Sweeps before the coarse correction (Chebyshev: degree)",
-                            "", o.presmooth, &n, &set));
+  PetscCall(PetscOptionsInt("-gmg_presmooth",
+                            "Sweeps before the coarse correction (Chebyshev: degree)", "",
+                            o.presmooth, &n, &set));
   if (set) o.presmooth = int(n);
-  PetscCall(PetscOptionsInt("-gmg_postsmooth", "Sweeps after the coarse correction (Chebyshev: degree)",
-                            "", o.postsmooth, &n, &set));
+  PetscCall(PetscOptionsInt("-gmg_postsmooth",
+                            "Sweeps after the coarse correction (Chebyshev: degree)", "",
+                            o.postsmooth, &n, &set));
   if (set) o.postsmooth = int(n);
   PetscCheck(o.presmooth >= 0 && o.postsmooth >= 0 && o.presmooth + o.postsmooth > 0,
              PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
@@ -120,11 +123,12 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
     o.eig_every = int(n);
   }
   choice = o.interpolation == Interpolation::energy ? 1 : 0;
-  PetscCall(PetscOptionsEList("-gmg_interpolation",
-                              "Interpolation: energy (energy-minimizing rows where coarse cells are "
-                              "cut, partial or span a material jump; trilinear elsewhere) or "
-                              "trilinear everywhere",
-                              "", interpolations, 2, interpolations[choice], &choice, &set));
+  PetscCall(
+      PetscOptionsEList("-gmg_interpolation",
+                        "Interpolation: energy (energy-minimizing rows where coarse cells are "
+                        "cut, partial or span a material jump; trilinear elsewhere) or "
+                        "trilinear everywhere",
+                        "", interpolations, 2, interpolations[choice], &choice, &set));
   if (set) o.interpolation = choice == 1 ? Interpolation::energy : Interpolation::trilinear;
   PetscCall(PetscOptionsInt("-gmg_energy_iterations",
                             "Energy-minimizing interpolation: conjugate-gradient iterations from "
@@ -134,6 +138,30 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
     PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
                "-gmg_energy_iterations must be >= 0");
     o.energy_iterations = int(n);
+  }
+  PetscCall(PetscOptionsInt("-gmg_energy_from",
+                            "Energy-minimizing interpolation to levels >= this (0: all)", "",
+                            o.energy_from, &n, &set));
+  if (set) {
+    PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_energy_from must be >= 0");
+    o.energy_from = int(n);
+  }
+  PetscCall(PetscOptionsInt("-gmg_schwarz_from",
+                            "Chebyshev on additive Schwarz (patches of irregular coarse cells) on "
+                            "levels >= this (-1: point-block Jacobi everywhere)",
+                            "", o.schwarz_from, &n, &set));
+  if (set) {
+    PetscCheck(n >= -1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_schwarz_from must be >= -1");
+    o.schwarz_from = int(n);
+  }
+  PetscCall(PetscOptionsReal("-gmg_degree_growth",
+                             "Chebyshev degree on level l: -gmg_presmooth x growth^l (at most 8)",
+                             "", o.degree_growth, &w, &set));
+  if (set) {
+    PetscCheck(w >= 1.0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_degree_growth must be >= 1");
+    o.degree_growth = w;
   }
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
