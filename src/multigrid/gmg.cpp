@@ -473,11 +473,9 @@ bool Multigrid::uses_schwarz(int l) const {
 PetscErrorCode Multigrid::precondition(int l, Vec r, Vec z) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
-  if (d.schwarz) {
-    PetscCall(d.schwarz->apply(d.diag_inv, d.mask, r, z));
-  } else {
-    PetscCall(block_jacobi(d.diag_inv, r, z));
-  }
+  // Point-block Jacobi everywhere; the Schwarz patches then replace it where they reach.
+  PetscCall(block_jacobi(d.diag_inv, r, z));
+  if (d.schwarz) PetscCall(d.schwarz->apply(r, z));
   PetscFunctionReturn(0);
 }
 
@@ -564,9 +562,8 @@ PetscErrorCode Multigrid::build_interpolation(int l) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& irregular = irregular_[l + 1];
-  int any = opt_.interpolation == Interpolation::energy && l >= opt_.energy_from &&
-            std::find(irregular.begin(), irregular.end(), char(1)) != irregular.end();
-  if (!any) {
+  if (opt_.interpolation != Interpolation::energy || l < opt_.energy_from ||
+      !has_irregular_parents(l)) {
     rows_[l] = InterpolationRows{};
     energy_stats_[l] = EnergyStats{};
     PetscFunctionReturn(0);  // the trilinear MAIJ of build() stays

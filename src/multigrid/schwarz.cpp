@@ -127,7 +127,7 @@ PetscErrorCode Schwarz::create(MPI_Comm comm, DM dm, const hierarchy::Level& fin
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Schwarz::apply(const std::vector<double>& diag_inv, Vec mask, Vec r, Vec z) const {
+PetscErrorCode Schwarz::apply(Vec r, Vec z) const {
   PetscFunctionBeginUser;
   Vec rl, zl;
   PetscCall(DMGetLocalVector(dm_, &rl));
@@ -161,32 +161,23 @@ PetscErrorCode Schwarz::apply(const std::vector<double>& diag_inv, Vec mask, Vec
   }
   PetscCall(VecRestoreArray(zl, &za));
   PetscCall(VecRestoreArrayRead(rl, &ra));
-  PetscCall(VecSet(z, 0.0));
-  PetscCall(DMLocalToGlobalBegin(dm_, zl, ADD_VALUES, z));
-  PetscCall(DMLocalToGlobalEnd(dm_, zl, ADD_VALUES, z));
+  // The patch sums of every rank, on the owners; they replace z on the DOFs some patch covers.
+  Vec zg;
+  PetscCall(DMGetGlobalVector(dm_, &zg));
+  PetscCall(VecSet(zg, 0.0));
+  PetscCall(DMLocalToGlobalBegin(dm_, zl, ADD_VALUES, zg));
+  PetscCall(DMLocalToGlobalEnd(dm_, zl, ADD_VALUES, zg));
   PetscCall(DMRestoreLocalVector(dm_, &rl));
   PetscCall(DMRestoreLocalVector(dm_, &zl));
-  // Owned copies that no patch covers: point-block Jacobi; masked DOFs: identity.
-  const PetscScalar *rg, *mg;
-  PetscScalar* zg;
-  PetscCall(VecGetArrayRead(r, &rg));
-  PetscCall(VecGetArrayRead(mask, &mg));
-  PetscCall(VecGetArray(z, &zg));
-  const std::size_t copies = covered_.size() / 3;
-  for (std::size_t i = 0; i < copies; ++i) {
-    const bool covered = covered_[3 * i] || covered_[3 * i + 1] || covered_[3 * i + 2];
-    if (!covered) {
-      const double* Di = &diag_inv[9 * i];
-      for (int c = 0; c < 3; ++c)
-        zg[3 * i + c] =
-            Di[3 * c] * rg[3 * i] + Di[3 * c + 1] * rg[3 * i + 1] + Di[3 * c + 2] * rg[3 * i + 2];
-    }
-    for (int c = 0; c < 3; ++c)
-      if (mg[3 * i + c] == 0.0) zg[3 * i + c] = rg[3 * i + c];
-  }
-  PetscCall(VecRestoreArray(z, &zg));
-  PetscCall(VecRestoreArrayRead(mask, &mg));
-  PetscCall(VecRestoreArrayRead(r, &rg));
+  const PetscScalar* sums;
+  PetscScalar* out;
+  PetscCall(VecGetArrayRead(zg, &sums));
+  PetscCall(VecGetArray(z, &out));
+  for (std::size_t i = 0; i < covered_.size(); ++i)
+    if (covered_[i]) out[i] = sums[i];
+  PetscCall(VecRestoreArray(z, &out));
+  PetscCall(VecRestoreArrayRead(zg, &sums));
+  PetscCall(DMRestoreGlobalVector(dm_, &zg));
   PetscFunctionReturn(0);
 }
 

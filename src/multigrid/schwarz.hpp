@@ -37,9 +37,10 @@ class Schwarz {
                                const std::vector<char>& coarse_selected,
                                const assembly::CellOperator& op, Vec mask, Schwarz* out);
 
-  /// z = M r on global vectors of the level (z overwritten); `diag_inv` (9 per owned copy)
-  /// serves the free DOFs that no patch covers; masked DOFs get z = r (identity rows).
-  PetscErrorCode apply(const std::vector<double>& diag_inv, Vec mask, Vec r, Vec z) const;
+  /// z = M r on global vectors of the level: replaces z on the DOFs some patch covers by
+  /// the sum of their patch solves and keeps z elsewhere, so a z that holds the point-block
+  /// Jacobi D^-1 r on entry (identity on masked DOFs) gives M r. Collective.
+  PetscErrorCode apply(Vec r, Vec z) const;
 
   std::int64_t num_patches() const { return std::int64_t(offset_.size()) - 1; }
   /// Numbers held: the packed factors.
