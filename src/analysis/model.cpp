@@ -1,5 +1,6 @@
 #include "analysis/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -115,7 +116,16 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
   M->lattice = build_lattice(deck, &M->warnings);
   PetscCall(require_memory(comm, deck, M->lattice.num_cells()));
   M->copies = topology::build_vertex_copies(M->lattice);
-  M->partition = topology::partition_lattice(M->lattice, M->copies, size, superblock);
+  // Composite elements of level l are cells of hierarchy level l, which must lie on one
+  // rank: super-blocks of at least 2^l cells; 2^(l+2) by default, so that hexcut's multigrid
+  // has two levels below the composite one (hierarchy/hierarchy.hpp).
+  int min_superblock = 1;
+  if (deck.discretization.type == deck::Discretization::Type::composite) {
+    min_superblock = 1 << deck.discretization.level;
+    superblock = std::max(superblock, 4 * min_superblock);
+  }
+  M->partition =
+      topology::partition_lattice(M->lattice, M->copies, size, superblock, min_superblock);
   PetscCall(build_distributed_data(comm, deck, rank, M));
   PetscFunctionReturn(0);
 }

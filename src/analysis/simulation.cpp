@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "analysis/composite.hpp"
 #include "analysis/events.hpp"
 #include "common/petsc_check.hpp"
 #include "element/newmark.hpp"
@@ -71,6 +72,8 @@ PetscErrorCode Simulation::setup() {
     PetscCall(PetscObjectTypeCompare((PetscObject)pc, multigrid::PCHEXCUT, &hexcut_pc));
     PetscFunctionReturn(0);
   }));
+  hexcut_pc_ = hexcut_pc;
+  if (composite()) PetscFunctionReturn(setup_composite(pc, hexcut_pc));
   if (hexcut_pc) {
     multigrid::Options options;
     PetscCall(multigrid::pc_get_options(pc, &options));
@@ -91,13 +94,80 @@ PetscErrorCode Simulation::setup() {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
+  PetscFunctionBeginUser;
+  // The hierarchy up to the composite level always exists: its Galerkin blocks are the
+  // composite elements. With gmg it continues below as the preconditioner (-gmg_levels
+  // counts the levels from the composite one down); other solvers get the composite
+  // system assembled (the coarsest level's matrix, not factored).
+  const int l = deck_.discretization.level;
+  multigrid::Options options;
+  if (hexcut_pc) {
+    PetscCall(multigrid::pc_get_options(pc, &options));
+    if (options.hierarchy.levels > 0) options.hierarchy.levels += l;
+    if (!options.cycle_set && !model_.lattice.cut_links.empty() &&
+        deck_.analysis.type == deck::Analysis::Type::static_)
+      options.cycle_gamma = 2;  // as for the fine hexahedra (setup)
+  } else {
+    options.hierarchy.levels = l + 1;
+    options.factor_coarsest = false;
+  }
+  options.first_level = l;
+  options.hierarchy.min_levels = l + 1;
+  mg_ = std::make_unique<multigrid::Multigrid>(comm_, model_.lattice, model_.copies,
+                                               model_.partition, model_.layout, model_.dm, options);
+  if (hexcut_pc) PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));
+  PetscCall(KSPSetDM(ksp_, mg_->dm(l)));
+  PetscCall(KSPSetDMActive(ksp_, PETSC_FALSE));
+  PetscCall(composite_positions(*mg_, &composite_coordinates_));
+  PetscFunctionReturn(0);
+}
+
 bool Simulation::uses_multigrid() const {
-  return mg_ != nullptr;
+  return hexcut_pc_;
+}
+
+bool Simulation::composite() const {
+  return deck_.discretization.type == deck::Discretization::Type::composite;
 }
 
 Simulation::~Simulation() {
   KSPDestroy(&ksp_);
   MatDestroy(&A_);
+  VecDestroy(&composite_u_);
+  VecDestroy(&composite_coordinates_);
+}
+
+PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess) {
+  PetscFunctionBeginUser;
+  EventScope scope(events().solve);
+  if (!composite()) {
+    PetscCall(solve::solve(ksp_, b, u, rec));
+    PetscFunctionReturn(0);
+  }
+  const int l = mg_->first_level();
+  if (!composite_u_) {
+    PetscCall(DMCreateGlobalVector(mg_->dm(l), &composite_u_));
+    PetscCall(VecSet(composite_u_, 0.0));
+  }
+  if (!guess) PetscCall(VecSet(composite_u_, 0.0));
+  Vec bc;
+  PetscCall(DMGetGlobalVector(mg_->dm(l), &bc));
+  double deviation = 0.0;
+  PetscCall(composite_rhs(*mg_, b, bc, composite_u_, &deviation));
+  if (deviation > 1e-3 && !deviation_warned_) {
+    // Prescribed values that vary over a composite element cannot be met exactly.
+    PetscCall(PetscPrintf(comm_,
+                          "%swarning: composite elements meet the prescribed displacements "
+                          "only to %.2g of their largest value (they vary within composite "
+                          "elements; doc/user-guide.md, \"Discretization\")\n",
+                          deck_.discretization.where.prefix().c_str(), deviation));
+    deviation_warned_ = true;
+  }
+  PetscCall(solve::solve(ksp_, bc, composite_u_, rec));
+  PetscCall(DMRestoreGlobalVector(mg_->dm(l), &bc));
+  PetscCall(prolong_composite(*mg_, composite_u_, u));
+  PetscFunctionReturn(0);
 }
 
 bool Simulation::corotational() const {
@@ -115,7 +185,17 @@ PetscErrorCode Simulation::assemble(const assembly::OperatorWeights& w) {
       SETERRQ(comm_, PETSC_ERR_NOT_CONVERGED, "%s",
               "the multigrid's set-up failed: a singular 3x3 diagonal block");
     PetscCall(ierr);
-    PetscCall(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()));
+    if (hexcut_pc_ || !composite()) {
+      PetscCall(KSPSetOperators(ksp_, mg_->fine_operator(), mg_->fine_operator()));
+    } else {
+      // The assembled composite system (identity rows on fixed composite DOFs).
+      PetscCall(
+          solve::set_operator(ksp_, deck_.solver, mg_->coarsest_matrix(), composite_coordinates_));
+    }
+    if (composite() && !supports_checked_) {
+      PetscCall(check_composite_supports(comm_, *mg_, deck_));
+      supports_checked_ = true;
+    }
   } else {
     PetscCall(assembly::assemble_constrained_matrix(model_.dm, model_.layout, model_.cells, w,
                                                     model_.boundary.constraints, A_));
@@ -158,10 +238,7 @@ PetscErrorCode Simulation::static_step(State& s, const OnSolve& on_solve) {
                                       model_.boundary.constraints, t_eval, lf, b));
     PetscCall(VecCopy(s.u, u_new));
     solve::SolveRecord rec;
-    {
-      EventScope scope(events().solve);
-      PetscCall(solve::solve(ksp_, b, u_new, &rec));
-    }
+    PetscCall(solve_system(b, u_new, &rec));
     s.time = lf;
     s.step = step;
     if (on_solve) on_solve(s, rec);
@@ -204,6 +281,15 @@ PetscErrorCode Simulation::initial_acceleration(State& s) {
     PetscCall(assembly::add_corotational_rhs(model_.dm, model_.layout, model_.cells, 1.0, r));
   PetscCall(assembly::apply(model_.dm, model_.layout, model_.cells, {1.0, 0.0, true}, s.u, Ku));
   PetscCall(VecAXPY(r, -1.0, Ku));
+  if (composite()) {
+    // M~ a~0 = I^T r with the Galerkin mass, by the run's own solver; prescribed rows 0.
+    PetscCall(assembly::set_prescribed_values(model_.boundary.constraints, s.time, 0.0, r));
+    PetscCall(assemble(mass_only));
+    solve::SolveRecord rec;
+    PetscCall(solve_system(r, s.a, &rec, false));
+    assembled_ = false;  // the step's operator is assembled at the first step
+    PetscFunctionReturn(0);
+  }
   Mat M;
   KSP k;
   PetscCall(assembly::create_matrix(comm_, model_.copies, model_.layout, &M));
@@ -268,8 +354,7 @@ PetscErrorCode Simulation::linearized_step(State& s, Vec u_new, solve::SolveReco
   PetscCall(assembly::constrain_rhs(model_.dm, model_.layout, model_.cells, w,
                                     model_.boundary.constraints, t1, 1.0, b));
   PetscCall(VecCopy(s.u, u_new));
-  EventScope scope(events().solve);
-  PetscCall(solve::solve(ksp_, b, u_new, rec));
+  PetscCall(solve_system(b, u_new, rec));
   PetscFunctionReturn(0);
 }
 
@@ -283,6 +368,9 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   //   A u_k+1 = A u_k + r(u_k)   (prescribed rows: u_k+1 = u0(t_n+1))
   // with the operator A = a0 M + a1 D + K^ of the solver, its rotations those of the
   // mid-point between u_n and the predictor.
+  // The deck rejects corotational composite runs (one rotation per composite element is
+  // not built): this step solves on the fine copies.
+  PetscCheck(!composite(), comm_, PETSC_ERR_SUP, "mid-point step with composite elements");
   const auto& an = deck_.analysis;
   const auto c = element::newmark_coefficients(an.dt);
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;

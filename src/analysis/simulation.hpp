@@ -64,14 +64,26 @@ class Simulation {
   PetscErrorCode elastic_energy(const State& s, double* energy);
 
   bool corotational() const;
+  /// The preconditioner is hexcut's multigrid (solver gmg or gmg-cycles).
   bool uses_multigrid() const;
+  /// The discretization is composite elements (deck discretization.type composite): the
+  /// linear systems are solved on the composite level, the state stays on the fine copies
+  /// (u = I u~; doc/theory.md, "Composite elements").
+  bool composite() const;
   KSP ksp() const { return ksp_; }
-  /// The multigrid preconditioner (solver gmg or gmg-cycles), else null.
+  /// The multigrid (solver gmg or gmg-cycles; composite runs: always, it holds the composite
+  /// level and the interpolation to it), else null.
   multigrid::Multigrid* multigrid() const { return mg_.get(); }
 
  private:
   Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck);
   PetscErrorCode setup();
+  PetscErrorCode setup_composite(PC pc, bool hexcut_pc);
+  /// Solves the step's constrained fine system A u = b (prescribed rows of b: their values;
+  /// u: the initial guess) with the KSP; composite runs solve its Galerkin projection on the
+  /// composite level and return u = I u~ (doc/theory.md, "Composite elements"). `guess`:
+  /// start a composite solve from the last composite solution (else zero).
+  PetscErrorCode solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess = true);
   PetscErrorCode assemble(const assembly::OperatorWeights& w);
   PetscErrorCode refresh_rotations(Vec u);
   /// One Newmark solve with the rotations of s.u (linear runs: identity).
@@ -92,7 +104,11 @@ class Simulation {
   const deck::Deck& deck_;
   Mat A_ = nullptr;  // assembled operator (not created for gmg)
   std::unique_ptr<multigrid::Multigrid> mg_;
+  bool hexcut_pc_ = false;
   KSP ksp_ = nullptr;
+  Vec composite_u_ = nullptr;            // the last composite solution (initial guess)
+  Vec composite_coordinates_ = nullptr;  // composite copies' reference positions (AMG)
+  bool supports_checked_ = false, deviation_warned_ = false;
   bool assembled_ = false;
   StepEnergy energy_;
   int solves_ = 0;

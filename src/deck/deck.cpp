@@ -830,6 +830,39 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
   return a;
 }
 
+Discretization parse_discretization(const Context& c, const YAML::Node& n,
+                                    const Analysis& analysis) {
+  check_keys(c, n, "discretization", {"type", "level"});
+  Discretization d;
+  d.where = c.where(n);
+  if (n["type"]) {
+    const std::string t = get_string(c, n["type"], "discretization.type");
+    if (t == "hexahedra")
+      d.type = Discretization::Type::hexahedra;
+    else if (t == "composite")
+      d.type = Discretization::Type::composite;
+    else
+      c.fail(n["type"], "discretization.type must be hexahedra or composite, not '" + t + "'");
+  }
+  if (n["level"]) {
+    if (d.type != Discretization::Type::composite)
+      c.fail(n["level"], "discretization.level applies only to type: composite");
+    d.level = get_int(c, n["level"], "discretization.level");
+    if (d.level < 0 || d.level > 3)
+      c.fail(n["level"], "discretization.level must be 1, 2 or 3 (0: the fine hexahedra)");
+  } else if (d.type == Discretization::Type::composite) {
+    c.fail(n, "discretization type composite needs 'level' (1, 2 or 3)");
+  }
+  // One rotation per composite element (Wu 2015, eq. 4.7) is not built yet: the
+  // corotational formulation would rotate fine cells inside a composite element separately.
+  if (d.type == Discretization::Type::composite &&
+      analysis.formulation == Analysis::Formulation::corotational)
+    c.fail(n,
+           "composite elements support formulation: linear only (corotational composite "
+           "elements are not implemented yet; doc/user-guide.md \"Discretization\")");
+  return d;
+}
+
 Solver parse_solver(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "solver", {"type", "rtol", "max_iterations", "cycles", "petsc_options"});
   Solver s;
@@ -1044,9 +1077,9 @@ namespace {
 
 Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
                     const std::string& path) {
-  check_keys(
-      c, root, "the deck",
-      {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "solver", "output"});
+  check_keys(c, root, "the deck",
+             {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "discretization",
+              "solver", "output"});
   for (const char* required : {"lattice", "materials", "geometry"})
     if (!root[required])
       throw InputError(path, 1, std::string("missing section '") + required + "'");
@@ -1064,6 +1097,8 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
   if (root["boundary"]) parse_boundary(c, root["boundary"], d);
   if (root["cuts"]) d.cuts = parse_cuts(c, root["cuts"]);
   if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
+  if (root["discretization"])
+    d.discretization = parse_discretization(c, root["discretization"], d.analysis);
   if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
   d.output.where = {path, 1};
   if (root["output"]) d.output = parse_output(c, root["output"]);

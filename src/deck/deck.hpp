@@ -144,6 +144,17 @@ struct Solver {
   std::vector<std::pair<std::string, std::string>> petsc_options;  // name (with '-'), value
 };
 
+/// The simulation's discretization (doc/theory.md, "Composite elements"): the fine hexahedra
+/// of the lattice, or composite elements, the cells of multigrid hierarchy level `level`
+/// (each a connected piece of a (2^level)^3 block of fine cells) with Galerkin matrices
+/// K~ = I^T K I, M~ = I^T M I from the fine cells they contain (Wu 2015, eq. 4.3-4.5).
+struct Discretization {
+  enum class Type { hexahedra, composite };
+  Type type = Type::hexahedra;
+  int level = 0;  // composite: 1..3 (0: the fine hexahedra through the composite path)
+  SourceLocation where;
+};
+
 struct Output {
   std::string directory = "results";
   std::string name;          // default: deck file stem
@@ -207,6 +218,7 @@ struct Deck {
   Centrifugal centrifugal;
   std::vector<Cut> cuts;
   Analysis analysis;
+  Discretization discretization;
   Solver solver;
   Output output;
 };

@@ -86,10 +86,12 @@ std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
   const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
   while (int(levels.size()) < wanted) {
     const auto& f = levels.back();
-    if (opt.levels == 0 && 3 * std::int64_t(f.copies.num_copies) <= opt.coarse_dofs) break;
+    const bool enough = int(levels.size()) >= opt.min_levels;
+    if (opt.levels == 0 && enough && 3 * std::int64_t(f.copies.num_copies) <= opt.coarse_dofs)
+      break;
     Level c;
     c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
-    if (opt.levels == 0 && c.graph.num_cells() == f.graph.num_cells()) break;
+    if (opt.levels == 0 && enough && c.graph.num_cells() == f.graph.num_cells()) break;
     c.copies = topology::build_vertex_copies(c.graph);
     c.partition.num_ranks = partition.num_ranks;
     c.partition.superblock = std::max(1, f.partition.superblock / 2);

@@ -39,13 +39,14 @@ struct HierarchyOptions {
   int levels = 0;                   // 0 = automatic
   std::int64_t coarse_dofs = 3000;  // automatic: stop once a level has at most this many DOFs
   Coarsening mode = Coarsening::components;
+  int min_levels = 1;  // automatic: at least this many (a composite level l needs l + 1)
 };
 
 /// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and DOF
 /// layout (the layout of `rank`).
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, and never exceeds
-/// log2(partition.superblock) + 1 levels.
+/// log2(partition.superblock) + 1 levels; it builds at least min_levels (if the cap allows).
 std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
                                    const topology::VertexCopies& copies,
                                    const topology::Partition& partition,

@@ -168,7 +168,13 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     PetscCall(MatCreateMAIJ(P, 3, &data_[l]->P));
     PetscCall(MatDestroy(&P));
   }
-  const auto& D0 = levels_[0].layout;
+  const int first = opt_.first_level;
+  PetscCheck(first < L, comm, PETSC_ERR_USER_INPUT,
+             "composite elements of level %d need %d hierarchy levels, but the hierarchy has %d "
+             "(at most log2(super-block) + 1 = %d with super-blocks of %d cells)",
+             first, first + 1, L, 1 + int(std::lround(std::log2(double(partition.superblock)))),
+             partition.superblock);
+  const auto& D0 = levels_[first].layout;
   PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
                            PETSC_DETERMINE, this, &shell_));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
@@ -197,6 +203,9 @@ Multigrid::~Multigrid() {
   KSPDestroy(&coarse_ksp_);
 }
 
+DM Multigrid::dm(int l) const {
+  return data_[l]->dm;
+}
 Mat Multigrid::interpolation(int l) const {
   return data_[l]->P;
 }
@@ -254,9 +263,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     std::vector<double> mask;
     PetscCall(assembly::dirichlet_mask(d0.dm, constrained_rows, d0.mask, &mask));
     fine_op_->set_mask(std::move(mask));
+    if (opt_.first_level > 0) PetscCall(build_composite_mask());
   }
+  const int first = opt_.first_level;
   mark_dirty_fine_cells(cells, full);
-  PetscCall(build_diagonal(0));
+  if (first == 0) PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
   if (uses_schwarz(0)) PetscCall(build_schwarz(0));
   // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child.
@@ -267,7 +278,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     const auto& fd = *data_[l - 1];
     // The interpolation to level l-1 depends on its operator: recomputed on full rebuilds
     // (kept across rotation-only updates, whose operators differ by rotations only).
-    if (full) PetscCall(build_interpolation(l - 1));
+    if (full && l - 1 >= first) PetscCall(build_interpolation(l - 1));
     rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
                                      l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
     if (l == 1) {
@@ -283,14 +294,15 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     // The diagonal blocks sum over ranks: rebuilt wherever any rank changed this level.
     int changed = rebuilt_[l] > 0;
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_));
-    if (changed) PetscCall(build_diagonal(l));
+    // Below the first level only the Galerkin chain is needed.
+    if (changed && l >= first) PetscCall(build_diagonal(l));
     if (changed && uses_schwarz(l)) PetscCall(build_schwarz(l));
     if (l == L - 1 && changed) PetscCall(build_coarsest());
   }
   if (L == 1) PetscCall(build_coarsest());
   if (opt_.smoother == Smoother::chebyshev) {
     if (full || ++updates_since_estimate_ >= opt_.eig_every) {
-      for (int l = 0; l + 1 < L; ++l) PetscCall(estimate_lambda_max(l));
+      for (int l = first; l + 1 < L; ++l) PetscCall(estimate_lambda_max(l));
       updates_since_estimate_ = 0;
     }
   }
@@ -351,7 +363,7 @@ PetscErrorCode Multigrid::apply_level_impl(int l, Vec x, Vec y) {
 }
 
 PetscErrorCode Multigrid::apply_fine(Vec x, Vec y) {
-  return apply_level_impl(0, x, y);
+  return apply_level_impl(opt_.first_level, x, y);
 }
 PetscErrorCode Multigrid::apply_level(int l, Vec x, Vec y) {
   return apply_level_impl(l, x, y);
@@ -466,8 +478,8 @@ bool Multigrid::has_irregular_parents(int l) const {
 }
 
 bool Multigrid::uses_schwarz(int l) const {
-  return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 && l >= opt_.schwarz_from &&
-         has_irregular_parents(l);
+  return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 &&
+         l >= std::max(opt_.schwarz_from, opt_.first_level) && has_irregular_parents(l);
 }
 
 PetscErrorCode Multigrid::precondition(int l, Vec r, Vec z) {
@@ -577,6 +589,44 @@ PetscErrorCode Multigrid::build_interpolation(int l) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Multigrid::build_composite_mask() {
+  PetscFunctionBeginUser;
+  // Wu's fixation propagation (doc/theory.md, "Composite elements"): a composite DOF is fixed
+  // when it carries weight from a prescribed fine DOF. The trilinear weights are >= 0, so
+  // restricting the indicator of prescribed fine DOFs level by level, P^T v, is positive
+  // exactly there (per component: MAIJ keeps x, y, z apart).
+  const int first = opt_.first_level;
+  Vec v = data_[0]->tmp;
+  PetscCall(VecSet(v, 1.0));
+  PetscCall(VecAXPY(v, -1.0, data_[0]->mask));
+  for (int l = 0; l < first; ++l) {
+    Vec c = data_[l + 1]->tmp;
+    PetscCall(MatMultTranspose(data_[l]->P, v, c));
+    v = c;
+  }
+  auto& d = *data_[first];
+  PetscScalar* m;
+  const PetscScalar* a;
+  PetscInt n;
+  PetscCall(VecGetLocalSize(v, &n));
+  PetscCall(VecGetArrayRead(v, &a));
+  PetscCall(VecGetArray(d.mask, &m));
+  for (PetscInt i = 0; i < n; ++i) m[i] = a[i] > 0.0 ? 0.0 : 1.0;
+  PetscCall(VecRestoreArray(d.mask, &m));
+  PetscCall(VecRestoreArrayRead(v, &a));
+  // The local (owned + ghost) mask for the blocks.
+  Vec ml;
+  PetscCall(DMGetLocalVector(d.dm, &ml));
+  PetscCall(assembly::global_to_local(d.dm, d.mask, ml));
+  PetscCall(VecGetLocalSize(ml, &n));
+  PetscCall(VecGetArrayRead(ml, &a));
+  composite_mask_.assign(a, a + n);
+  PetscCall(VecRestoreArrayRead(ml, &a));
+  PetscCall(DMRestoreLocalVector(d.dm, &ml));
+  d.stored->set_mask(composite_mask_);
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Multigrid::build_coarsest() {
   PetscFunctionBeginUser;
   const int l = num_levels() - 1;
@@ -587,6 +637,7 @@ PetscErrorCode Multigrid::build_coarsest() {
   if (!coarse_matrix_)
     PetscCall(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_));
   PetscCall(assembly::assemble(*d.op, d.mask, coarse_matrix_));
+  if (!opt_.factor_coarsest) PetscFunctionReturn(0);
   if (!coarse_ksp_) {
     PetscCall(KSPCreate(comm_, &coarse_ksp_));
     PetscCall(KSPSetOptionsPrefix(coarse_ksp_, "gmg_coarse_"));
@@ -649,9 +700,10 @@ PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
 PetscErrorCode Multigrid::cycle(Vec b, Vec x) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
-  PetscCall(VecCopy(b, data_[0]->b));
-  PetscCall(cycle_level(0, true));
-  PetscCall(VecCopy(data_[0]->x, x));
+  const int first = opt_.first_level;
+  PetscCall(VecCopy(b, data_[first]->b));
+  PetscCall(cycle_level(first, true));
+  PetscCall(VecCopy(data_[first]->x, x));
   PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

@@ -66,6 +66,15 @@ struct Options {
   // per application); a solid block keeps presmooth (postsmooth) everywhere.
   double degree_growth = 1.0;
   bool view = false;
+  // Composite elements (doc/theory.md, "Composite elements"; set by the simulation, not an
+  // option): the cycle starts on this level, whose operator is the composite system: the
+  // Galerkin blocks of the levels below with the rows and columns of fixed composite DOFs
+  // (those that carry weight from a prescribed fine DOF) zeroed. Levels below it only carry
+  // the Galerkin chain (trilinear interpolation, no smoothing).
+  int first_level = 0;
+  // false: the coarsest level is assembled but not factored (the composite system for
+  // another solver: coarsest_matrix()).
+  bool factor_coarsest = true;
 };
 
 class Multigrid {
@@ -101,10 +110,14 @@ class Multigrid {
   /// One cycle (V or W, Options::cycle_gamma) from a zero guess: x = M^{-1} b (x is
   /// overwritten).
   PetscErrorCode cycle(Vec b, Vec x);
-  /// y = A x with the constrained fine operator, matrix-free.
+  /// y = A x with the constrained operator of the cycle's first level (the fine operator, or
+  /// the composite system), matrix-free.
   PetscErrorCode apply_fine(Vec x, Vec y);
-  /// A MATSHELL of the constrained fine operator (owned by the Multigrid).
+  /// A MATSHELL of that operator (owned by the Multigrid).
   Mat fine_operator() const { return shell_; }
+  /// The level the cycle starts on (Options::first_level) and its DM.
+  int first_level() const { return opt_.first_level; }
+  DM dm(int l) const;
   /// Prints levels, cells, DOFs, stored numbers and memory (-gmg_view).
   PetscErrorCode view(PetscViewer viewer) const;
 
@@ -140,6 +153,7 @@ class Multigrid {
   PetscErrorCode estimate_lambda_max(int l);
   PetscErrorCode build_coarsest();
   PetscErrorCode build_interpolation(int l);
+  PetscErrorCode build_composite_mask();
   bool has_irregular_parents(int l) const;  // some cell of level l+1 is irregular
   bool uses_schwarz(int l) const;
   PetscErrorCode build_schwarz(int l);
@@ -161,6 +175,7 @@ class Multigrid {
   std::vector<std::vector<char>> irregular_;  // per level l >= 1: its irregular cells (canonical)
   std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
   std::vector<EnergyStats> energy_stats_;
+  std::vector<double> composite_mask_;  // first level > 0: per local DOF, 0 fixed
   Mat shell_ = nullptr;
   KSP coarse_ksp_ = nullptr;
   Mat coarse_matrix_ = nullptr;

@@ -42,6 +42,12 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
         galerkin_accumulate(child, octant, parent);
       }
     }
+    if (!mask_.empty()) {
+      const auto& corners = parent_corners[C];
+      for (int i = 0; i < 24; ++i)
+        if (mask_[3 * std::size_t(corners[i / 3]) + i % 3] == 0.0)
+          for (int j = 0; j < 24; ++j) parent[24 * i + j] = parent[24 * j + i] = 0.0;
+    }
     pack_symmetric(parent, &packed_[kPackedSize * C]);
   }
   return rebuilt;
@@ -52,8 +58,8 @@ void StoredCells::apply_add(const double* x, double* y) const {
                     backend::CellApplyAdd<StoredCellOps>{{packed_.data()}, corners(), x, y});
 }
 
-void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k,
-                                   const double* x, double* y) const {
+void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
+                                   double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();
   backend::for_each(std::int64_t(num_cells()), backend::CellColourRows<StoredCellOps>{
                                                    {packed_.data()}, corners(), p, k, x, y});

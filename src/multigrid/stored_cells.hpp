@@ -38,6 +38,10 @@ class StoredCells final : public assembly::CellOperator {
                         const InterpolationRows* rows = nullptr);
   /// Per local cell: rebuilt by the last galerkin().
   const std::vector<char>& dirty() const { return dirty_; }
+  /// Dirichlet mask (1 free, 0 fixed; 3 values per local copy, owned and ghosts): galerkin()
+  /// zeroes the rows and columns of fixed DOFs in the blocks it builds, D A_C D with
+  /// D = diag(mask) (composite elements). Empty: none.
+  void set_mask(std::vector<double> mask_local) { mask_ = std::move(mask_local); }
 
   void apply_add(const double* x, double* y) const override;
   void apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
@@ -48,6 +52,7 @@ class StoredCells final : public assembly::CellOperator {
  private:
   std::vector<double> packed_;  // 300 per local cell
   std::vector<char> dirty_;
+  std::vector<double> mask_;
 };
 
 }  // namespace hexcut::multigrid

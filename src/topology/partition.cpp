@@ -2,6 +2,7 @@
 
 #include <metis.h>
 
+#include <algorithm>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -9,7 +10,7 @@
 namespace hexcut::topology {
 
 Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, int num_ranks,
-                            int superblock) {
+                            int superblock, int min_superblock) {
   Partition P;
   P.num_ranks = num_ranks;
   const std::int32_t n = L.num_cells();
@@ -28,7 +29,7 @@ Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, in
         auto it = block_id.emplace(key, int(block_id.size())).first;
         block_of_cell[c] = it->second;
       }
-      if (int(block_id.size()) >= 2 * num_ranks || sb == 1) break;
+      if (int(block_id.size()) >= 2 * num_ranks || sb <= std::max(1, min_superblock)) break;
       sb /= 2;
     }
     P.superblock = sb;

@@ -22,8 +22,10 @@ struct Partition {
 };
 
 /// `superblock` is a power of two; it is halved while there are fewer than 2 occupied
-/// super-blocks per rank. Throws std::runtime_error if the body cannot be split.
+/// super-blocks per rank, but not below `min_superblock` (composite elements of level l need
+/// 2^l: a composite element must lie on one rank). Throws std::runtime_error if the body
+/// cannot be split.
 Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies& copies,
-                            int num_ranks, int superblock);
+                            int num_ranks, int superblock, int min_superblock = 1);
 
 }  // namespace hexcut::topology
