@@ -287,7 +287,8 @@ PetscErrorCode Simulation::initial_acceleration(State& s) {
     PetscCall(assemble(mass_only));
     solve::SolveRecord rec;
     PetscCall(solve_system(r, s.a, &rec, false));
-    assembled_ = false;  // the step's operator is assembled at the first step
+    PetscCall(VecSet(composite_u_, 0.0));  // not a displacement: no initial guess for the step
+    assembled_ = false;                    // the step's operator is assembled at the first step
     PetscFunctionReturn(0);
   }
   Mat M;
@@ -588,15 +589,24 @@ PetscErrorCode Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec lo
       PetscCall(internal_force(s.u, tmp));
       PetscCall(VecAXPY(rho, 0.5, tmp));
     }
-    const PetscScalar* p;
-    PetscCall(VecGetArrayRead(rho, &p));
-    PetscCall(VecGetArrayRead(du, &d));
-    double w = 0.0;
-    for (PetscInt r : rows) w += d[r - first] * p[r - first];
-    PetscCall(VecRestoreArrayRead(du, &d));
-    PetscCall(VecRestoreArrayRead(rho, &p));
-    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_));
-    e.support_work = w;
+    if (composite()) {
+      // The composite equations hold on the free composite DOFs only, so rho does not
+      // vanish on free fine rows; du = I dv~ and I_f^T rho = 0 make du . rho the work of
+      // the fixed composite DOFs, the composite supports' reactions.
+      PetscScalar w;
+      PetscCall(VecDot(du, rho, &w));
+      e.support_work = w;
+    } else {
+      const PetscScalar* p;
+      PetscCall(VecGetArrayRead(rho, &p));
+      PetscCall(VecGetArrayRead(du, &d));
+      double w = 0.0;
+      for (PetscInt r : rows) w += d[r - first] * p[r - first];
+      PetscCall(VecRestoreArrayRead(du, &d));
+      PetscCall(VecRestoreArrayRead(rho, &p));
+      PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_));
+      e.support_work = w;
+    }
   }
   PetscFunctionReturn(0);
 }

@@ -271,6 +271,15 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
     PetscPrintf(comm, "hexcut: solver %s (KSP %s, PC %s), rtol %g\n",
                 deck::to_string(deck.solver.type), ksp_type, pc_type ? pc_type : "none",
                 deck.solver.rtol);
+    if (sim->composite()) {
+      const auto* mg = sim->multigrid();
+      const auto& lev = mg->level(mg->first_level());
+      PetscPrintf(comm,
+                  "hexcut: composite elements of level %d: %d elements, %d DOFs (%.1fx fewer "
+                  "than the hexahedra)\n",
+                  mg->first_level(), int(lev.graph.num_cells()), 3 * int(lev.copies.num_copies),
+                  double(model.copies.num_copies) / double(lev.copies.num_copies));
+    }
   }
   // A static body its supports do not hold stops here, before the result file exists.
   if (!restart) throw_on_petsc_error(driver->prepare());

@@ -109,6 +109,18 @@ struct Job {
   }
 };
 
+/// max |a - b| / max |a| over two global vectors of the same layout.
+inline double rel_max_difference(Vec a, Vec b) {
+  Vec d;
+  VecDuplicate(a, &d);
+  VecWAXPY(d, -1.0, a, b);
+  PetscReal nd, na;
+  VecNorm(d, NORM_INFINITY, &nd);
+  VecNorm(a, NORM_INFINITY, &na);
+  VecDestroy(&d);
+  return nd / na;
+}
+
 /// Sum over all DOFs of a global vector, per component (x, y, z): a resultant force or
 /// a total momentum.
 inline Eigen::Vector3d component_sums(Vec v) {

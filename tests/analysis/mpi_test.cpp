@@ -82,5 +82,26 @@ TEST(Mpi, CorotationalDynamicTwoRanksEqualOneRank) {
   compare(gmg, 1e-10);
 }
 
+class EveryCompositeSolver : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(EveryCompositeSolver, CompositeTwoRanksEqualOneRank) {
+  // Composite elements of levels 1 and 2 (each inside one rank's super-blocks), static, and
+  // a dynamic run with gravity; the composite system assembled (hypre, direct) or the
+  // multigrid from the composite level down.
+  const std::string solver =
+      std::string("{type: ") + GetParam() + ", rtol: 1.0e-11, max_iterations: 20000}";
+  for (int level : {1, 2}) {
+    const std::string composite =
+        "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
+    compare(cantilever_deck(0.025, "{type: static}", solver) + composite, 1e-9);
+    std::string dynamic = cantilever_deck(0.025, "{type: dynamic, dt: 0.001, steps: 5}", solver);
+    dynamic.insert(dynamic.find("analysis:"), "  gravity: [0, 0, -9.81]\n");
+    compare(dynamic + composite, 1e-9);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, EveryCompositeSolver,
+                         ::testing::Values("hypre", "direct", "gmg"));
+
 }  // namespace
 }  // namespace hexcut::testing

@@ -269,15 +269,16 @@ std::string bar_deck(double length, const std::string& extra) {
          extra;
 }
 
-TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
-  // Cut at x = 0.2 at t = 0, before the first step: the free part must fall rigidly,
-  // u_z = -g t^2 / 2 (Newmark's average acceleration is exact for constant acceleration),
-  // and the clamped part must move exactly like a bar that was only 0.2 long.
-  const double g = 9.81;
+/// Cut at x = cells * h at t = 0, before the first step: the free part must fall rigidly,
+/// u_z = -g t^2 / 2 (Newmark's average acceleration is exact for constant acceleration),
+/// and the clamped part must move exactly like a bar that was only that long. `extra`: more
+/// deck text (a discretization).
+void check_cut_bar(int cells, const std::string& extra) {
+  const double g = 9.81, x = 0.025 * cells;
   Job cut_bar(PETSC_COMM_WORLD,
-              bar_deck(1.0, "cuts:\n" + plane_cut(0, 0.2, 1.0, 0.0, 0, 0.05, 0.05)));
+              bar_deck(1.0, "cuts:\n" + plane_cut(0, x, 1.0, 0.0, 0, 0.05, 0.05) + extra));
   run_with_cuts(PETSC_COMM_WORLD, cut_bar);
-  Job short_bar(PETSC_COMM_WORLD, bar_deck(0.2, ""));
+  Job short_bar(PETSC_COMM_WORLD, bar_deck(x, extra));
   short_bar.initial_acceleration();
   short_bar.run();
   const double t = cut_bar.state.time;
@@ -293,7 +294,7 @@ TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
   for (std::int32_t c = 0; c < cut_bar.model.copies.num_copies; ++c) {
     const Eigen::Vector3d uc(&u[3 * c]);
     const auto cell = cut_bar.model.copies.first_cell[c];
-    if (L.ijk[cell][0] >= 8) {  // free piece (cells right of x = 0.2)
+    if (L.ijk[cell][0] >= cells) {  // free piece (cells right of the cut)
       ++free_copies;
       fall_error = std::max(
           fall_error, (uc - Eigen::Vector3d(0, 0, -0.5 * g * t * t)).norm() / (0.5 * g * t * t));
@@ -304,13 +305,25 @@ TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
     }
   }
   std::printf(
-      "free piece (%d copies): max relative deviation from -g t^2/2 = %.2e at t = %g s; clamped "
-      "piece vs "
-      "a 0.2 m bar: %.2e relative\n",
-      free_copies, fall_error, t, clamped_error / clamped_scale);
+      "cut at x = %g%s: free piece (%d copies): max relative deviation from -g t^2/2 = %.2e at "
+      "t = %g s; clamped piece vs a bar of that length: %.2e relative\n",
+      x, extra.empty() ? "" : " (composite)", free_copies, fall_error, t,
+      clamped_error / clamped_scale);
   EXPECT_GT(free_copies, 0);
   EXPECT_LT(fall_error, 0.01);
   EXPECT_LT(clamped_error, 1e-6 * clamped_scale);
+}
+
+TEST(Cuts, CutBarFreePieceFallsWithGravityAndTheClampedPieceIsUndisturbed) {
+  check_cut_bar(8, "");
+}
+
+TEST(Cuts, CompositeCutBarFreePieceFallsAndTheClampedPieceIsUndisturbed) {
+  // Composite elements of level 1 and 2 (2 and 4 fine cells wide): the cut at x = 9 h
+  // runs through composite elements, which split into a piece on each side; the clamped
+  // side's composite elements are those of a bar that ends at the cut.
+  for (int level : {1, 2})
+    check_cut_bar(9, "discretization: {type: composite, level: " + std::to_string(level) + "}\n");
 }
 
 TEST(Cuts, FreePieceAcceleratesWithGravityAfterALateCut) {

@@ -1,0 +1,382 @@
+// Composite elements (doc/theory.md, "Composite elements") against independent references:
+// level 0 is the fine model; the composite stiffness and mass are MatPtAP of the assembled
+// fine matrices with the composite interpolation (fixed columns removed); the composite mass
+// weighs the body; affine fields are interpolated exactly, through cuts; uniaxial tension on
+// roller supports is reproduced exactly (its solution is affine, so it lies in every
+// composite space); with the level fixed, refining h converges to a manufactured solution
+// (analysis_manufactured_test); energy balance (analysis_energy_test); a cut bar
+// (cut_test); 1 rank = 2 ranks (analysis_mpi_test).
+#include "analysis/composite.hpp"
+
+#include <cmath>
+
+#include "analysis/cutting.hpp"
+#include "assembly/boundary.hpp"
+#include "fixture.hpp"
+
+namespace hexcut::testing {
+namespace {
+
+const char* kComposite1 = "discretization: {type: composite, level: 1}\n";
+
+/// A block with a spherical hole and a stiffer part, clamped at x = 0 and on rollers
+/// (y) at x = 1.2, loaded at x = 1.2, and cut from the top to half depth at x = 0.5.
+std::string holed_block(const std::string& analysis, bool supports = true, bool cut = true) {
+  std::string s =
+      "lattice: {h: 0.1, dims: [12, 8, 8]}\n"
+      "materials: {a: {E: 1000.0, nu: 0.3, rho: 2.0}, b: {E: 5000.0, nu: 0.2, rho: 1.0}}\n"
+      "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: a\n"
+      "  - subtract: {sphere: {centre: [0.6, 0.4, 0.4], radius: 0.25}}\n"
+      "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n";
+  if (supports)
+    s += "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
+         "    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      components: [y]\n"
+         "  traction:\n    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n"
+         "      value: [0, 0, -10.0]\n";
+  if (cut)
+    s += "cuts:\n  - blade: {polygon: [[0.5, -1, 0.4], [0.5, 2, 0.4], [0.5, 2, 2], [0.5, -1, 2]]}\n"
+         "    time: 0\n";
+  return s + "analysis: " + analysis + "\n";
+}
+
+/// The composite interpolation I = P_0 ... P_(l-1) as an AIJ matrix (identity for l = 0).
+Mat composite_interpolation(const multigrid::Multigrid& mg) {
+  const int l = mg.first_level();
+  Mat I = nullptr;
+  for (int k = 0; k < l; ++k) {
+    Mat Pk;
+    MatConvert(mg.interpolation(k), MATAIJ, MAT_INITIAL_MATRIX, &Pk);
+    if (!I) {
+      I = Pk;
+    } else {
+      Mat IP;
+      MatMatMult(I, Pk, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &IP);
+      MatDestroy(&I);
+      MatDestroy(&Pk);
+      I = IP;
+    }
+  }
+  return I;
+}
+
+/// ||A - B||_F / ||A||_F.
+double matrix_difference(Mat A, Mat B) {
+  Mat D;
+  MatDuplicate(A, MAT_COPY_VALUES, &D);
+  MatAXPY(D, -1.0, B, DIFFERENT_NONZERO_PATTERN);
+  PetscReal nd, na;
+  MatNorm(D, NORM_FROBENIUS, &nd);
+  MatNorm(A, NORM_FROBENIUS, &na);
+  MatDestroy(&D);
+  return nd / na;
+}
+
+/// The composite matrix of `job` (solver direct: the assembled, unfactored composite
+/// level) for weights w, against I_f^T A I_f + diag(fixed) from the assembled fine matrix.
+double galerkin_difference(Job& job, const assembly::OperatorWeights& w) {
+  auto* mg = job.sim->multigrid();
+  const auto& rows = job.model.boundary.constraints.rows;
+  HEXCUT_CALL(mg->update(job.model.cells, w, rows));
+  Mat C = mg->coarsest_matrix();
+  Mat A;
+  HEXCUT_CALL(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.layout, &A));
+  HEXCUT_CALL(assembly::assemble_constrained_matrix(job.model.dm, job.model.layout, job.model.cells,
+                                                    w, job.model.boundary.constraints, A));
+  Mat I = composite_interpolation(*mg);
+  Vec mc = mg->mask(mg->first_level()), fixed;
+  VecDuplicate(mc, &fixed);
+  VecSet(fixed, 1.0);
+  VecAXPY(fixed, -1.0, mc);
+  MatDiagonalScale(I, nullptr, mc);  // the fixed composite columns removed
+  Mat R;
+  MatPtAP(A, I, MAT_INITIAL_MATRIX, 2.0, &R);
+  MatSetOption(R, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE);
+  MatDiagonalSet(R, fixed, ADD_VALUES);
+  const double d = matrix_difference(C, R);
+  for (Mat* m : {&A, &I, &R}) MatDestroy(m);
+  VecDestroy(&fixed);
+  return d;
+}
+
+TEST(Composite, LevelZeroIsTheFineModel) {
+  // The composite path (restriction, fixed values, lifting, prolongation) at level 0 is
+  // the identity: the same displacement as the hexahedra to round-off, with the direct
+  // solver, also for a prescribed non-zero displacement.
+  for (const char* support : {"", "      value: [0.001, 0, -0.002]\n"}) {
+    std::string deck = cantilever_deck(0.025, "{type: static}", "{type: direct}");
+    const std::string clamp = "normal: [1, 0, 0]}}\n";
+    deck.insert(deck.find(clamp) + clamp.size(), support);
+    Job fine(PETSC_COMM_WORLD, deck);
+    fine.run();
+    Job level0(PETSC_COMM_WORLD, deck + "discretization: {type: composite, level: 0}\n");
+    ASSERT_TRUE(level0.sim->composite());
+    level0.run();
+    const auto a = fine.canonical(fine.state.u), b = level0.canonical(level0.state.u);
+    double d = 0, s = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      d = std::max(d, std::abs(a[i] - b[i]));
+      s = std::max(s, std::abs(a[i]));
+    }
+    EXPECT_LT(d, 1e-12 * s) << support;
+  }
+}
+
+TEST(Composite, StiffnessAndMassAreTheGalerkinProductsOfTheFineMatrices) {
+  // K~ = I_f^T K I_f and M~ = I_f^T M I_f (consistent and lumped fine mass; also with the
+  // Newmark weights of a step) from PETSc's MatPtAP of the assembled fine matrices, on a
+  // body with a hole, a material jump, a cut that ends inside it, a clamp and a roller.
+  for (int level : {1, 2}) {
+    const std::string deck =
+        holed_block("{type: dynamic, dt: 0.01, steps: 1}") + "solver: {type: direct}\n" +
+        "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
+    Job job(PETSC_COMM_WORLD, deck);
+    analysis::Cutter cutter(job.deck, job.model.lattice);
+    analysis::CutReport r;
+    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
+                                         &job.state, &r));
+    ASSERT_GT(r.links, 0);
+    job.sim.reset();
+    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    for (const assembly::OperatorWeights& w :
+         {assembly::OperatorWeights{1.0, 0.0, true}, assembly::OperatorWeights{0.0, 1.0, false},
+          assembly::OperatorWeights{0.0, 1.0, true}, assembly::OperatorWeights{1.2, 400.0, true}}) {
+      const double d = galerkin_difference(job, w);
+      std::printf("level %d, weights (%g, %g, %s): |C - I^T A I| / |C| = %.2e\n", level,
+                  w.stiffness, w.mass, w.lumped_mass ? "lumped" : "consistent", d);
+      EXPECT_LT(d, 1e-12);
+    }
+  }
+}
+
+TEST(Composite, MassWeighsTheBody) {
+  // A translation t on every composite copy interpolates to t on every fine copy, so
+  // t^T M~ t = m |t|^2 with m the body's mass (sum of rho h^3 over its cells).
+  for (int level : {1, 2, 3}) {
+    const std::string deck = holed_block("{type: dynamic, dt: 0.01, steps: 1}", false, false) +
+                             "solver: {type: direct}\ndiscretization: {type: composite, level: " +
+                             std::to_string(level) + "}\n";
+    Job job(PETSC_COMM_WORLD, deck);
+    double mass = 0;
+    const auto& L = job.model.lattice;
+    for (std::int32_t c = 0; c < L.num_cells(); ++c)
+      mass += job.deck.materials[L.material[c]].density * std::pow(L.spec.h, 3);
+    for (bool lumped : {false, true}) {
+      auto* mg = job.sim->multigrid();
+      HEXCUT_CALL(mg->update(job.model.cells, {0.0, 1.0, lumped}, {}));
+      Mat C = mg->coarsest_matrix();
+      Vec t, Ct;
+      MatCreateVecs(C, &t, &Ct);
+      for (int d = 0; d < 3; ++d) {
+        PetscInt lo, hi;
+        VecGetOwnershipRange(t, &lo, &hi);
+        PetscScalar* a;
+        VecGetArray(t, &a);
+        for (PetscInt i = lo; i < hi; ++i) a[i - lo] = i % 3 == d ? 1.0 : 0.0;
+        VecRestoreArray(t, &a);
+        MatMult(C, t, Ct);
+        PetscScalar m;
+        VecDot(t, Ct, &m);
+        EXPECT_NEAR(m, mass, 1e-12 * mass) << "level " << level << " component " << d;
+      }
+      VecDestroy(&t);
+      VecDestroy(&Ct);
+    }
+  }
+}
+
+TEST(Composite, AffineFieldsAreInterpolatedExactlyThroughCuts) {
+  // Each piece's composite copies carry the affine field at their positions; I gives it
+  // back at every fine copy, on both sides of the cut and around the hole.
+  for (int level : {1, 2, 3}) {
+    const std::string deck = holed_block("{type: static}") + "solver: {type: direct}\n" +
+                             "discretization: {type: composite, level: " + std::to_string(level) +
+                             "}\n";
+    Job job(PETSC_COMM_WORLD, deck);
+    analysis::Cutter cutter(job.deck, job.model.lattice);
+    analysis::CutReport r;
+    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
+                                         &job.state, &r));
+    job.sim.reset();
+    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    auto* mg = job.sim->multigrid();
+    const Eigen::Matrix3d G =
+        (Eigen::Matrix3d() << 0.1, -0.3, 0.2, 0.05, 0.4, -0.1, 0.3, 0.0, -0.2).finished();
+    const Eigen::Vector3d c(0.01, -0.02, 0.03);
+    auto affine = [&](Vec positions, Vec out) {
+      PetscInt n;
+      VecGetLocalSize(positions, &n);
+      const PetscScalar* x;
+      PetscScalar* u;
+      VecGetArrayRead(positions, &x);
+      VecGetArray(out, &u);
+      for (PetscInt i = 0; i < n / 3; ++i) {
+        const Eigen::Vector3d v = G * Eigen::Vector3d(x[3 * i], x[3 * i + 1], x[3 * i + 2]) + c;
+        for (int d = 0; d < 3; ++d) u[3 * i + d] = v[d];
+      }
+      VecRestoreArray(out, &u);
+      VecRestoreArrayRead(positions, &x);
+    };
+    Vec xc, uc, u, exact;
+    HEXCUT_CALL(analysis::composite_positions(*mg, &xc));
+    VecDuplicate(xc, &uc);
+    affine(xc, uc);
+    DMCreateGlobalVector(job.model.dm, &u);
+    VecDuplicate(u, &exact);
+    HEXCUT_CALL(analysis::prolong_composite(*mg, uc, u));
+    affine(job.model.coordinates, exact);
+    EXPECT_LT(rel_max_difference(exact, u), 1e-14) << "level " << level;
+    for (Vec* v : {&xc, &uc, &u, &exact}) VecDestroy(v);
+  }
+}
+
+TEST(Composite, UniaxialTensionOnRollersIsExact) {
+  // sigma_xx = s on x = L, rollers on x = 0, y = 0, z = 0: u = (s/E) (x, -nu y, -nu z),
+  // affine, so every composite level reproduces it; through the composite loads (the
+  // traction restricted), the fixation propagation and the Galerkin stiffness.
+  const double E = 1000.0, nu = 0.3, s = 5.0;
+  const std::string base =
+      "lattice: {h: 0.05, dims: [16, 8, 8]}\n"
+      "materials: {m: {E: 1000.0, nu: 0.3, rho: 1.0}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [0.8, 0.4, 0.4]}}}]\n"
+      "boundary:\n  fixed:\n"
+      "    - {where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}, components: [x]}\n"
+      "    - {where: {plane: {point: [0, 0, 0], normal: [0, 1, 0]}}, components: [y]}\n"
+      "    - {where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}, components: [z]}\n"
+      "  traction:\n    - {where: {plane: {point: [0.8, 0, 0], normal: [1, 0, 0]}}, value: [5.0, "
+      "0, 0]}\n"
+      "analysis: {type: static}\n";
+  for (const char* solver : {"{type: direct}", "{type: gmg, rtol: 1.0e-12}"})
+    for (int level : {1, 2, 3}) {
+      Job job(PETSC_COMM_WORLD,
+              base + "solver: " + solver +
+                  "\ndiscretization: {type: composite, level: " + std::to_string(level) + "}\n");
+      job.run();
+      Vec exact;
+      VecDuplicate(job.state.u, &exact);
+      PetscInt n;
+      VecGetLocalSize(exact, &n);
+      const PetscScalar* x;
+      PetscScalar* u;
+      VecGetArrayRead(job.model.coordinates, &x);
+      VecGetArray(exact, &u);
+      for (PetscInt i = 0; i < n / 3; ++i) {
+        u[3 * i] = s / E * x[3 * i];
+        u[3 * i + 1] = -nu * s / E * x[3 * i + 1];
+        u[3 * i + 2] = -nu * s / E * x[3 * i + 2];
+      }
+      VecRestoreArray(exact, &u);
+      VecRestoreArrayRead(job.model.coordinates, &x);
+      const double d = rel_max_difference(exact, job.state.u);
+      std::printf("%s, level %d: max |u - u_exact| / max |u_exact| = %.2e\n", solver, level, d);
+      EXPECT_LT(d, 1e-9) << solver << " level " << level;
+      VecDestroy(&exact);
+    }
+}
+
+/// ||I x~ - x|| / ||x|| for the least-squares x~ (I^T I x~ = I^T x, direct solve): 0 when
+/// the fine vector x lies in the composite space.
+double distance_from_composite_space(const multigrid::Multigrid& mg, Vec x) {
+  Mat I = composite_interpolation(mg);
+  Mat N;
+  MatTransposeMatMult(I, I, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &N);
+  Vec rhs, xc, back;
+  MatCreateVecs(N, &xc, &rhs);
+  MatMultTranspose(I, x, rhs);
+  KSP ksp;
+  KSPCreate(PETSC_COMM_WORLD, &ksp);
+  KSPSetOperators(ksp, N, N);
+  KSPSetType(ksp, KSPPREONLY);
+  PC pc;
+  KSPGetPC(ksp, &pc);
+  PCSetType(pc, PCLU);
+  PCFactorSetMatSolverType(pc, MATSOLVERMUMPS);
+  KSPSolve(ksp, rhs, xc);
+  VecDuplicate(x, &back);
+  MatMult(I, xc, back);
+  VecAXPY(back, -1.0, x);
+  PetscReal d, n;
+  VecNorm(back, NORM_2, &d);
+  VecNorm(x, NORM_2, &n);
+  KSPDestroy(&ksp);
+  for (Vec* v : {&rhs, &xc, &back}) VecDestroy(v);
+  MatDestroy(&N);
+  MatDestroy(&I);
+  return n > 0 ? d / n : d;
+}
+
+TEST(Composite, StateStaysInTheCompositeSpaceThroughALateCut) {
+  // The state lives on the fine copies as u = I u~. A cut splits fine copies (with their
+  // state) and composite elements into pieces, each inside an old element, so the old field
+  // is still I_new u~_new with every new composite copy taking its old copy's value (Wu's
+  // rule; analysis/composite.hpp): u, v and a stay in the new composite space.
+  const std::string deck =
+      "lattice: {h: 0.025, dims: [40, 4, 4]}\n"
+      "materials: {m: {E: 2.0e5, nu: 0.3, rho: 1000}}\n"
+      "geometry: [{add: {box: {min: [0, 0, 0], max: [1.0, 0.1, 0.1]}}}]\n"
+      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
+      "  gravity: [0, 0, -9.81]\n"
+      "cuts:\n  - blade: {polygon: [[0.335, -1, 0.05], [0.335, 2, 0.05], [0.335, 2, 2], [0.335, "
+      "-1, "
+      "2]]}\n    time: 0.01\n"
+      "analysis: {type: dynamic, dt: 0.002, steps: 10}\n"
+      "solver: {type: gmg, rtol: 1.0e-12}\n"
+      "discretization: {type: composite, level: 2}\n";
+  Job job(PETSC_COMM_WORLD, deck);
+  double worst = 0.0;
+  int checked = 0;
+  analysis::DriverHooks hooks;
+  hooks.on_step = [&](const analysis::State& s) {
+    if (s.time < 0.011) return;
+    for (Vec v : {s.u, s.v, s.a})
+      worst = std::max(worst, distance_from_composite_space(*job.sim->multigrid(), v));
+    ++checked;
+  };
+  analysis::Driver driver(PETSC_COMM_WORLD, job.deck, job.model, job.state, job.sim, hooks);
+  HEXCUT_CALL(driver.begin());
+  HEXCUT_CALL(driver.run());
+  std::printf("after the cut (%d steps): largest distance of u, v, a from range(I): %.2e\n",
+              checked, worst);
+  EXPECT_GE(checked, 4);
+  EXPECT_FALSE(job.model.lattice.cut_links.empty());
+  EXPECT_LT(worst, 1e-10);
+}
+
+TEST(Composite, FixationPropagationAndDeckErrors) {
+  // The clamp of the cantilever's end face (5 x 5 fine vertices) stays that face at every
+  // level; a support at one fine vertex inside composite element E fixes E's 8 corners
+  // and so clamps all of E's fine vertices: (2^l + 1)^3 of them, less those on the face.
+  const std::string base = cantilever_deck(0.025, "{type: static}", "{type: direct}");
+  const std::string clamp = "normal: [1, 0, 0]}}\n";
+  for (int level : {1, 2})
+    for (bool point : {false, true}) {
+      std::string deck = base;
+      if (point)
+        deck.insert(deck.find(clamp) + clamp.size(),
+                    "    - where: {sphere: {centre: [0.025, 0.025, 0.025], radius: 0.001}}\n");
+      Job job(PETSC_COMM_WORLD,
+              deck + "discretization: {type: composite, level: " + std::to_string(level) + "}\n");
+      job.run();
+      PetscInt clamped = 0, prescribed = 0;
+      HEXCUT_CALL(analysis::check_composite_supports(PETSC_COMM_WORLD, *job.sim->multigrid(),
+                                                     job.deck, &clamped, &prescribed));
+      const int side = (1 << level) + 1;
+      EXPECT_EQ(prescribed, 3 * (25 + point));
+      EXPECT_EQ(clamped, 3 * (25 + (point ? side * side * side - side * side : 0)))
+          << "level " << level;
+    }
+  const std::string deck = base;
+  EXPECT_THROW(deck::parse_deck(deck + "discretization: {type: composite}\n", "d.yaml"),
+               InputError);
+  EXPECT_THROW(deck::parse_deck(deck + "discretization: {type: composite, level: 4}\n", "d.yaml"),
+               InputError);
+  EXPECT_THROW(deck::parse_deck(deck + "discretization: {type: hexahedra, level: 1}\n", "d.yaml"),
+               InputError);
+  EXPECT_THROW(deck::parse_deck(cantilever_deck(0.025, "{type: static, formulation: corotational}",
+                                                "{type: direct}") +
+                                    kComposite1,
+                                "d.yaml"),
+               InputError);
+}
+
+}  // namespace
+}  // namespace hexcut::testing
