@@ -148,6 +148,21 @@ PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, do
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm) {
+  PetscFunctionBeginUser;
+  const int l = mg.first_level();
+  Vec t, c;
+  PetscCall(DMGetGlobalVector(mg.dm(0), &t));
+  PetscCall(DMGetGlobalVector(mg.dm(l), &c));
+  PetscCall(VecPointwiseMult(t, r, mg.mask(0)));
+  PetscCall(restrict_composite(mg, t, c));
+  PetscCall(VecPointwiseMult(c, c, mg.mask(l)));
+  PetscCall(VecNorm(c, NORM_2, norm));
+  PetscCall(DMRestoreGlobalVector(mg.dm(l), &c));
+  PetscCall(DMRestoreGlobalVector(mg.dm(0), &t));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode composite_positions(const multigrid::Multigrid& mg, Vec* x) {
   PetscFunctionBeginUser;
   const auto& lev = mg.level(mg.first_level());

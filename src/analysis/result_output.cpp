@@ -95,6 +95,10 @@ output::ResultWriter create_writer(MPI_Comm comm, const Model& M, const deck::De
   MeshTables t;
   fill_mesh_tables(comm, M, &t);
   output::RunInfo run{deck.text, command_line};
+  if (deck.discretization.type == deck::Discretization::Type::composite) {
+    run.discretization = "composite";
+    run.composite_level = deck.discretization.level;
+  }
   return output::ResultWriter::create(path, comm, t.mesh, run);
 }
 
@@ -118,15 +122,15 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
   double x24[24];
   element::corner_positions(C.h, nullptr, x24);
   const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::vector<double> rotations;
+  if (corotational) {
+    rotations.resize(9 * n);
+    assembly::cell_rotations(D, C, ua, rotations.data());
+  }
   for (std::size_t e = 0; e < n; ++e) {
-    double u24[24], R[9], F[9];
+    double u24[24];
     element::gather_cell(ua, D.cell_corners[e].data(), u24);
-    if (corotational) {
-      element::deformation_gradient_at_centre(u24, C.h, F);
-      element::polar_rotation(F, R);
-    } else {
-      std::copy(identity, identity + 9, R);
-    }
+    const double* R = corotational ? &rotations[9 * e] : identity;
     const auto s = element::recover_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e]);
     std::copy(s.sigma, s.sigma + 6, &out->sigma[6 * e]);
     out->von_mises[e] = s.von_mises;

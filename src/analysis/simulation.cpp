@@ -117,6 +117,27 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   mg_ = std::make_unique<multigrid::Multigrid>(comm_, model_.lattice, model_.copies,
                                                model_.partition, model_.layout, model_.dm, options);
   if (hexcut_pc) PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));
+  // One rotation per composite element (corotational runs): the fine cells of an element
+  // form a rotation group (assembly::cell_rotations), so the Galerkin blocks of the rotated
+  // fine cells are the element's block rotated, R^ K~ R^T.
+  {
+    auto& cells = model_.cells;
+    const auto& D0 = model_.layout;
+    std::vector<std::int32_t> ancestor(D0.cells.begin(), D0.cells.end());
+    for (int k = 0; k < l; ++k)
+      for (auto& c : ancestor) c = mg_->level(k).parent[c];
+    const auto& top = mg_->level(l);
+    std::vector<std::int32_t> local(top.graph.num_cells(), -1);
+    for (std::size_t C = 0; C < top.layout.cells.size(); ++C)
+      local[top.layout.cells[C]] = std::int32_t(C);
+    cells.rotation_group.resize(ancestor.size());
+    for (std::size_t e = 0; e < ancestor.size(); ++e) {
+      PetscCheck(local[ancestor[e]] >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                 "a composite element is not on the rank of its fine cells");
+      cells.rotation_group[e] = local[ancestor[e]];
+    }
+    cells.num_rotation_groups = std::int32_t(top.layout.cells.size());
+  }
   PetscCall(KSPSetDM(ksp_, mg_->dm(l)));
   PetscCall(KSPSetDMActive(ksp_, PETSC_FALSE));
   PetscCall(composite_positions(*mg_, &composite_coordinates_));
@@ -369,9 +390,6 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   //   A u_k+1 = A u_k + r(u_k)   (prescribed rows: u_k+1 = u0(t_n+1))
   // with the operator A = a0 M + a1 D + K^ of the solver, its rotations those of the
   // mid-point between u_n and the predictor.
-  // The deck rejects corotational composite runs (one rotation per composite element is
-  // not built): this step solves on the fine copies.
-  PetscCheck(!composite(), comm_, PETSC_ERR_SUP, "mid-point step with composite elements");
   const auto& an = deck_.analysis;
   const auto c = element::newmark_coefficients(an.dt);
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;
@@ -392,6 +410,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   *total = solve::SolveRecord{};
   double change = 0.0, energy[2];
   solves_ = 0;
+  std::vector<double> frozen_rotations;  // composite runs: those of the solver's operator
   {
     EventScope scope(events().energy);
     PetscCall(
@@ -407,26 +426,45 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // step: b below uses that same operator, so the iteration still converges to r = 0,
     // and a further iteration costs a solve, not an assembly and preconditioner set-up.
     // (The matrix-free gmg operator reads the current rotations; its hierarchy stays.)
-    if (solves_ == 0) PetscCall(assemble(w));
+    if (solves_ == 0) {
+      PetscCall(assemble(w));
+      if (composite()) frozen_rotations = model_.cells.rotation;
+    }
     // r = fixed - 2 f_alg - (a0 + a1 alpha1) M du - a1 alpha2 K^ du; no equation on the
     // prescribed rows.
     PetscCall(VecWAXPY(du, -1.0, s.u, u_new));
     PetscCall(assembly::apply(model_.dm, model_.layout, model_.cells, inertia, du, r));
     PetscCall(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar));
     PetscCall(assembly::set_prescribed_values(model_.boundary.constraints, t1, 0.0, r));
-    // b = A u_k + r with the solver's own operator (constrained: identity rows).
-    Mat A;
-    PetscCall(KSPGetOperators(ksp_, &A, nullptr));
-    PetscCall(MatMult(A, u_new, b));
+    // b = A u_k + r with the solver's own operator (constrained: identity rows); composite
+    // runs: the fine operator with the rotations the composite one was built from (its
+    // Galerkin product), not those of the iterate, or the iteration would converge to
+    // (A - A_k) u = r.
+    if (composite()) {
+      std::swap(model_.cells.rotation, frozen_rotations);
+      const PetscErrorCode ierr = mg_->apply_level(0, u_new, b);
+      std::swap(model_.cells.rotation, frozen_rotations);
+      PetscCall(ierr);
+    } else {
+      Mat A;
+      PetscCall(KSPGetOperators(ksp_, &A, nullptr));
+      PetscCall(MatMult(A, u_new, b));
+    }
     PetscCall(VecAXPY(b, 1.0, r));
     PetscCall(assembly::set_prescribed_values(model_.boundary.constraints, t1, 1.0, b));
     // Converged when the last update was below the tolerance, or when the residual is as
     // small as a linear solve leaves it (||b - A u|| <= rtol ||b||; twice that, so that a
     // solve that just met it counts): below that, updates are the linear solver's noise,
     // which the relative change could not tell from progress.
+    // Composite runs: the composite residual I_f^T r (the fine one does not vanish).
     PetscReal rn = 0, bn = 0;
-    PetscCall(VecNorm(r, NORM_2, &rn));
-    PetscCall(VecNorm(b, NORM_2, &bn));
+    if (composite()) {
+      PetscCall(composite_norm(*mg_, r, &rn));
+      PetscCall(composite_norm(*mg_, b, &bn));
+    } else {
+      PetscCall(VecNorm(r, NORM_2, &rn));
+      PetscCall(VecNorm(b, NORM_2, &bn));
+    }
     if ((solves_ > 0 && change <= an.tolerance) || rn <= 2 * deck_.solver.rtol * bn) break;
     if (solves_ == an.max_iterations) {
       char msg[400];
@@ -439,10 +477,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     }
     PetscCall(VecCopy(u_new, u_prev));
     solve::SolveRecord rec;
-    {
-      EventScope scope(events().solve);
-      PetscCall(solve::solve(ksp_, b, u_new, &rec));
-    }
+    PetscCall(solve_system(b, u_new, &rec));
     ++solves_;
     total->iterations += rec.iterations;
     total->setup_seconds += rec.setup_seconds;

@@ -58,30 +58,52 @@ void set_identity_rotations(CellData& C) {
     std::copy(kIdentity, kIdentity + 9, &C.rotation[9 * e]);
 }
 
-void update_rotations(const topology::DofLayout& D, const double* u_local, CellData& C) {
-  C.identity_rotations = false;
-  C.rotation.resize(9 * D.cells.size());
-  for (std::size_t e = 0; e < D.cells.size(); ++e) {
+void cell_rotations(const topology::DofLayout& D, const CellData& C, const double* u_local,
+                    double* R) {
+  const std::size_t n = D.cells.size();
+  if (C.rotation_group.empty()) {
+    for (std::size_t e = 0; e < n; ++e) {
+      double u24[24], F[9];
+      element::gather_cell(u_local, D.cell_corners[e].data(), u24);
+      element::deformation_gradient_at_centre(u24, C.h, F);
+      element::polar_rotation(F, &R[9 * e]);
+    }
+    return;
+  }
+  // The cells are of equal volume: the volume average of F is the mean, and the polar
+  // factor of the sum is that of the mean.
+  std::vector<double> sum(9 * std::size_t(C.num_rotation_groups), 0.0), group_R(sum.size());
+  for (std::size_t e = 0; e < n; ++e) {
     double u24[24], F[9];
     element::gather_cell(u_local, D.cell_corners[e].data(), u24);
     element::deformation_gradient_at_centre(u24, C.h, F);
-    element::polar_rotation(F, &C.rotation[9 * e]);
+    for (int k = 0; k < 9; ++k) sum[9 * std::size_t(C.rotation_group[e]) + k] += F[k];
   }
+  for (std::int32_t g = 0; g < C.num_rotation_groups; ++g)
+    element::polar_rotation(&sum[9 * std::size_t(g)], &group_R[9 * std::size_t(g)]);
+  for (std::size_t e = 0; e < n; ++e)
+    std::copy_n(&group_R[9 * std::size_t(C.rotation_group[e])], 9, &R[9 * e]);
+}
+
+void update_rotations(const topology::DofLayout& D, const double* u_local, CellData& C) {
+  C.identity_rotations = false;
+  C.rotation.resize(9 * D.cells.size());
+  cell_rotations(D, C, u_local, C.rotation.data());
 }
 
 double strain_energy_local(const topology::DofLayout& D, const CellData& C, const double* u,
                            bool corotational) {
-  double buffer[element::kElementMatrixSize], x24[24], u24[24], d[24], Kd[24], F[9], R[9];
+  double buffer[element::kElementMatrixSize], x24[24], u24[24], d[24], Kd[24];
   element::corner_positions(C.h, nullptr, x24);
+  std::vector<double> rotations;
+  if (corotational) {
+    rotations.resize(9 * D.cells.size());
+    cell_rotations(D, C, u, rotations.data());
+  }
   double w = 0.0;
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(u, D.cell_corners[e].data(), u24);
-    if (corotational) {
-      element::deformation_gradient_at_centre(u24, C.h, F);
-      element::polar_rotation(F, R);
-    } else {
-      std::copy(kIdentity, kIdentity + 9, R);
-    }
+    const double* R = corotational ? &rotations[9 * e] : kIdentity;
     element::corotated_displacement(R, x24, u24, d);
     element::element_matvec(cell_stiffness(C, e, buffer), d, Kd);
     for (int i = 0; i < 24; ++i) w += 0.5 * d[i] * Kd[i];
@@ -177,9 +199,11 @@ PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& D, cons
   double x24[24], u24[24];
   element::corner_positions(C.h, nullptr, x24);
   d->resize(24 * D.cells.size());
+  std::vector<double> R(9 * D.cells.size());
+  cell_rotations(D, C, a, R.data());
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(a, D.cell_corners[e].data(), u24);
-    element::current_corotated_displacement(C.h, x24, u24, &(*d)[24 * e]);
+    element::corotated_displacement(&R[9 * e], x24, u24, &(*d)[24 * e]);
   }
   PetscCall(VecRestoreArrayRead(ul, &a));
   PetscCall(DMRestoreLocalVector(dm, &ul));
@@ -206,15 +230,59 @@ PetscErrorCode assemble_midpoint_force(DM dm, const topology::DofLayout& D, Cell
   element::corner_positions(C.h, nullptr, x24);
   energy[0] = energy[1] = 0.0;
   C.identity_rotations = false;
+  // Rotation groups: the rotations at u1 and at the mid-point are the groups' (each cell's
+  // own are computed inside midpoint_force otherwise).
+  std::vector<double> R1, Rm;
+  if (!C.rotation_group.empty()) {
+    const std::size_t nl = 3 * std::size_t(D.num_local());
+    std::vector<double> um(nl);
+    for (std::size_t i = 0; i < nl; ++i) um[i] = 0.5 * (a0[i] + a1[i]);
+    R1.resize(9 * D.cells.size());
+    Rm.resize(R1.size());
+    cell_rotations(D, C, a1, R1.data());
+    cell_rotations(D, C, um.data(), Rm.data());
+  }
+  // Groups: the forces of all cells first, then the moment of each group's forces about
+  // its mid-point configuration is removed (element::remove_moment) before they are added.
+  const bool groups = !C.rotation_group.empty();
+  std::vector<double> group_f, group_z;
+  std::vector<std::int64_t> group_start;
+  if (groups) {
+    group_start.assign(std::size_t(C.num_rotation_groups) + 1, 0);
+    for (auto g : C.rotation_group) ++group_start[std::size_t(g) + 1];
+    for (std::size_t g = 0; g < std::size_t(C.num_rotation_groups); ++g)
+      group_start[g + 1] += group_start[g];
+    group_f.resize(24 * D.cells.size());
+    group_z.resize(24 * D.cells.size());
+  }
+  std::vector<std::int64_t> next(group_start.begin(), group_start.end());
+  std::vector<std::int64_t> slot(groups ? D.cells.size() : 0);
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(a0, D.cell_corners[e].data(), v0);
     element::gather_cell(a1, D.cell_corners[e].data(), v1);
-    const auto r =
-        element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e], v0, v1, fe);
+    const auto r = element::midpoint_force(cell_stiffness(C, e, buffer), C.h, x24, &d0[24 * e], v0,
+                                           v1, fe, groups ? &R1[9 * e] : nullptr,
+                                           groups ? &Rm[9 * e] : nullptr, !groups);
+    if (groups) {
+      // This cell's corners and forces in its group's arrays (mid-point positions).
+      slot[e] = next[std::size_t(C.rotation_group[e])]++;
+      for (int k = 0; k < 24; ++k) {
+        group_f[24 * slot[e] + k] = fe[k];
+        group_z[24 * slot[e] + k] = C.origin[e][k % 3] + x24[k] + 0.5 * (v0[k] + v1[k]);
+      }
+    }
     std::copy(r.rotation, r.rotation + 9, &C.rotation[9 * e]);
     energy[0] += r.energy0;
     energy[1] += r.energy1;
-    element::scatter_add_cell(fe, D.cell_corners[e].data(), fa);
+    if (!groups) element::scatter_add_cell(fe, D.cell_corners[e].data(), fa);
+  }
+  if (groups) {
+    for (std::size_t g = 0; g < std::size_t(C.num_rotation_groups); ++g) {
+      const auto b = group_start[g], n = group_start[g + 1] - b;
+      if (n > 0) element::remove_moment(int(8 * n), &group_z[24 * b], &group_f[24 * b]);
+    }
+    for (std::size_t e = 0; e < D.cells.size(); ++e)
+      element::scatter_add_cell(&group_f[24 * slot[e]], D.cell_corners[e].data(), fa);
   }
   PetscCall(VecRestoreArray(fl, &fa));
   PetscCall(VecRestoreArrayRead(l1, &a1));

@@ -21,9 +21,14 @@ namespace hexcut::assembly {
 /// DofLayout::cells).
 struct CellData {
   double h = 1.0;
-  std::vector<double> lambda, mu, rho;        // per local cell
-  std::vector<double> rotation;               // 9 per local cell, row-major
-  bool identity_rotations = true;             // every rotation is I (linear runs)
+  std::vector<double> lambda, mu, rho;  // per local cell
+  std::vector<double> rotation;         // 9 per local cell, row-major
+  bool identity_rotations = true;       // every rotation is I (linear runs)
+  // Rotation groups (composite elements, doc/theory.md "Composite elements"): per local cell
+  // its group; the cells of a group (all on this rank) share one rotation, the polar factor
+  // of their mean centre deformation gradient (Wu 2015, eq. 4.7). Empty: each cell its own.
+  std::vector<std::int32_t> rotation_group;
+  std::int32_t num_rotation_groups = 0;
   std::vector<std::array<double, 3>> origin;  // per local cell: minimum corner [m]
   // Cells with the same (lambda, mu) share one stiffness K = h (lambda K_lambda + mu
   // K_mu): a few 24x24 matrices per material, never one per cell. kind = -1 when there
@@ -48,13 +53,18 @@ struct OperatorWeights {
 /// Sets every rotation to the identity (linear elasticity).
 void set_identity_rotations(CellData& cells);
 
-/// Rotations from the displacement of the local copies (3 per local copy): polar factor of each
-/// cell's centre deformation gradient (doc/theory.md, "Corotation").
+/// The rotation of every local cell (9 each into R, row-major) at the displacement of the local
+/// copies (3 per local copy): the polar factor of the cell's centre deformation gradient
+/// (doc/theory.md, "Corotation"), or of its rotation group's mean one.
+void cell_rotations(const topology::DofLayout& layout, const CellData& cells, const double* u_local,
+                    double* R);
+
+/// Stores cell_rotations() in cells.rotation.
 void update_rotations(const topology::DofLayout& layout, const double* u_local, CellData& cells);
 
 /// Strain energy of the rank's cells, sum_e 1/2 d_e^T K_e d_e with the corotated
 /// displacement d_e = R^T (x + u) - x (doc/theory.md "Corotation"); R is computed here
-/// from u_local (polar factor of the centre deformation gradient) when `corotational`,
+/// from u_local (cell_rotations) when `corotational`,
 /// else the identity, and CellData's stored rotations are not touched. [J] (local part;
 /// sum over ranks). Cells shared by no rank twice: each local cell once.
 double strain_energy_local(const topology::DofLayout& layout, const CellData& cells,
@@ -79,7 +89,7 @@ PetscErrorCode add_corotational_rhs(DM dm, const topology::DofLayout& layout, co
                                     double stiffness_weight, Vec b);
 
 /// The corotated displacements d = R^T (x + u) - x of the local cells at the global
-/// displacement u (24 per cell, R of each cell's own u), for assemble_midpoint_force.
+/// displacement u (24 per cell, R from cell_rotations), for assemble_midpoint_force.
 PetscErrorCode corotated_displacements(DM dm, const topology::DofLayout& layout,
                                        const CellData& cells, Vec u, std::vector<double>* d);
 

@@ -830,8 +830,7 @@ Analysis parse_analysis(const Context& c, const YAML::Node& n) {
   return a;
 }
 
-Discretization parse_discretization(const Context& c, const YAML::Node& n,
-                                    const Analysis& analysis) {
+Discretization parse_discretization(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "discretization", {"type", "level"});
   Discretization d;
   d.where = c.where(n);
@@ -853,13 +852,6 @@ Discretization parse_discretization(const Context& c, const YAML::Node& n,
   } else if (d.type == Discretization::Type::composite) {
     c.fail(n, "discretization type composite needs 'level' (1, 2 or 3)");
   }
-  // One rotation per composite element (Wu 2015, eq. 4.7) is not built yet: the
-  // corotational formulation would rotate fine cells inside a composite element separately.
-  if (d.type == Discretization::Type::composite &&
-      analysis.formulation == Analysis::Formulation::corotational)
-    c.fail(n,
-           "composite elements support formulation: linear only (corotational composite "
-           "elements are not implemented yet; doc/user-guide.md \"Discretization\")");
   return d;
 }
 
@@ -1098,7 +1090,7 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
   if (root["cuts"]) d.cuts = parse_cuts(c, root["cuts"]);
   if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
   if (root["discretization"])
-    d.discretization = parse_discretization(c, root["discretization"], d.analysis);
+    d.discretization = parse_discretization(c, root["discretization"]);
   if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
   d.output.where = {path, 1};
   if (root["output"]) d.output = parse_output(c, root["output"]);

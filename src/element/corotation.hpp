@@ -107,8 +107,8 @@ HEXCUT_HD inline void element_force(const double R[9], const double* K, const do
 
 /// d = R^T (x + u) - x with R the polar rotation of the cell's own centre deformation
 /// gradient (as corotated_displacement; h: cell edge [m]).
-HEXCUT_HD inline void current_corotated_displacement(double h, const double* x24,
-                                                     const double* u24, double* d24) {
+HEXCUT_HD inline void current_corotated_displacement(double h, const double* x24, const double* u24,
+                                                     double* d24) {
   double F[9], R[9];
   deformation_gradient_at_centre(u24, h, F);
   polar_rotation(F, R);
@@ -134,9 +134,20 @@ struct MidpointForce {
 /// terms of second order in the step's rotation times its change of d (not exactly).
 /// K: 24x24 cell stiffness; h: cell edge [m]; x24: reference corners (cell-local);
 /// d0: the corotated displacement at u0 (current_corotated_displacement, which a step
-/// computes once); u0, u1: corner displacements [m]; f24: the force [N].
+/// computes once); u0, u1: corner displacements [m]; f24: the force [N]. R1, Rm: the
+/// rotations at u1 and at the mid-point when they are given (a composite element's, shared
+/// by its cells); null: the polar factors of this cell's own deformation gradients.
+/// remove_moment_here = false leaves the moment in f24: a composite element removes it
+/// from the forces of all its cells together (remove_moment), since its cells rotate with
+/// the element's rotation, not their own.
 MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
-                             const double* u0, const double* u1, double* f24);
+                             const double* u0, const double* u1, double* f24,
+                             const double* R1 = nullptr, const double* Rm = nullptr,
+                             bool remove_moment_here = true);
 
+/// Subtracts from the forces f (3 per point) at the n points z (3 per point, any origin)
+/// the infinitesimal rotation theta x (z - c) about their centroid c with the same moment
+/// about c: the result has the resultant of f and no moment (points on a line: unchanged).
+void remove_moment(int n, const double* z, double* f);
 
 }  // namespace hexcut::element

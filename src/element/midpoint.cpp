@@ -1,4 +1,5 @@
 #include <Eigen/Dense>
+#include <algorithm>
 
 #include "element/corotation.hpp"
 #include "element/kinematics.hpp"
@@ -20,14 +21,44 @@ double dot24(const double* a, const double* b) {
 
 }  // namespace
 
+void remove_moment(int n, const double* z, double* f) {
+  // Subtract the infinitesimal rotation theta x z (centroid-relative) with J theta = moment,
+  // J = sum (|z|^2 I - z z^T), which has the same moment and no resultant.
+  Vec3 c = Vec3::Zero();
+  for (int q = 0; q < n; ++q) c += corner(z, q) / n;
+  Vec3 moment = Vec3::Zero();
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  for (int q = 0; q < n; ++q) {
+    const Vec3 zq = corner(z, q) - c;
+    moment += zq.cross(corner(f, q));
+    J += zq.squaredNorm() * Eigen::Matrix3d::Identity() - zq * zq.transpose();
+  }
+  // Points on a line have a singular J; they keep their (tiny) moment.
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * J.trace())) return;
+  const Vec3 theta = ldlt.solve(moment);
+  for (int q = 0; q < n; ++q) {
+    const Vec3 t = theta.cross(corner(z, q) - c);
+    for (int i = 0; i < 3; ++i) f[3 * q + i] -= t[i];
+  }
+}
+
 MidpointForce midpoint_force(const double* K, double h, const double* x24, const double* d0,
-                             const double* u0, const double* u1, double* f24) {
+                             const double* u0, const double* u1, double* f24, const double* R1,
+                             const double* Rm, bool remove_moment_here) {
   MidpointForce out;
   double um[kElementDofs], F[9], d1[kElementDofs];
   for (int k = 0; k < kElementDofs; ++k) um[k] = 0.5 * (u0[k] + u1[k]);
-  current_corotated_displacement(h, x24, u1, d1);
-  deformation_gradient_at_centre(um, h, F);
-  polar_rotation(F, out.rotation);
+  if (R1)
+    corotated_displacement(R1, x24, u1, d1);
+  else
+    current_corotated_displacement(h, x24, u1, d1);
+  if (Rm) {
+    std::copy(Rm, Rm + 9, out.rotation);
+  } else {
+    deformation_gradient_at_centre(um, h, F);
+    polar_rotation(F, out.rotation);
+  }
   double Kd0[kElementDofs], Kd1[kElementDofs];
   element_matvec(K, d0, Kd0);
   element_matvec(K, d1, Kd1);
@@ -36,29 +67,12 @@ MidpointForce midpoint_force(const double* K, double h, const double* x24, const
   for (int k = 0; k < kElementDofs; ++k) Kd0[k] = 0.5 * (Kd0[k] + Kd1[k]);  // K dbar
   rotate_blocks(out.rotation, Kd0, f24);
 
-  // Remove the moment of R_m K dbar about the mid-point corners z (centroid-relative):
-  // subtract the infinitesimal rotation theta x z with J theta = moment,
-  // J = sum (|z|^2 I - z z^T), which has the same moment and no resultant.
-  Vec3 z[kCorners], c = Vec3::Zero();
-  for (int q = 0; q < kCorners; ++q) {
-    z[q] = corner(x24, q) - corner(x24, 0) + corner(um, q);
-    c += z[q] / kCorners;
-  }
-  Vec3 moment = Vec3::Zero();
-  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-  for (int q = 0; q < kCorners; ++q) {
-    z[q] -= c;
-    moment += z[q].cross(corner(f24, q));
-    J += z[q].squaredNorm() * Eigen::Matrix3d::Identity() - z[q] * z[q].transpose();
-  }
-  // A cell collapsed onto a line has a singular J; it keeps its (tiny) moment.
-  const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);
-  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * J.trace())) return out;
-  const Vec3 theta = ldlt.solve(moment);
-  for (int q = 0; q < kCorners; ++q) {
-    const Vec3 t = theta.cross(z[q]);
-    for (int i = 0; i < 3; ++i) f24[3 * q + i] -= t[i];
-  }
+  if (!remove_moment_here) return out;
+  // Remove the moment of R_m K dbar about the mid-point corners z.
+  double z[kElementDofs];
+  for (int q = 0; q < kCorners; ++q)
+    for (int i = 0; i < 3; ++i) z[3 * q + i] = x24[3 * q + i] - x24[i] + um[3 * q + i];
+  remove_moment(kCorners, z, f24);
   return out;
 }
 

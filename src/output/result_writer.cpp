@@ -561,6 +561,8 @@ ResultWriter ResultWriter::create(const std::string& path, MPI_Comm comm, const 
     H5get_libversion(&major, &minor, &release);
     f.write_attribute("/input", "hexcut_version", HEXCUT_VERSION);
     f.write_attribute("/input", "hexcut_git_hash", HEXCUT_GIT_HASH);
+    f.write_attribute("/input", "discretization", run.discretization);
+    f.write_attribute("/input", "composite_level", run.composite_level);
     f.write_attribute(
         "/input", "hdf5_version",
         std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(release));

@@ -56,6 +56,10 @@ struct SurfaceData {
 struct RunInfo {
   std::string deck;          // the YAML deck text, verbatim
   std::string command_line;  // argv joined with spaces
+  // The discretization the fields were computed on: "hexahedra", or "composite" with the
+  // composite level (the fields are still per fine point and cell, interpolated).
+  std::string discretization = "hexahedra";
+  std::int64_t composite_level = 0;
 };
 
 /// One row of /solver_history (one linear/nonlinear solve).

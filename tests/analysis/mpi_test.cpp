@@ -80,6 +80,8 @@ TEST(Mpi, CorotationalDynamicTwoRanksEqualOneRank) {
   std::string gmg = yaml;
   gmg.replace(gmg.find("type: gamg"), 10, "type: gmg");
   compare(gmg, 1e-10);
+  // Composite elements of level 1, one rotation each, with the multigrid below them.
+  compare(gmg + "discretization: {type: composite, level: 1}\n", 1e-10);
 }
 
 class EveryCompositeSolver : public ::testing::TestWithParam<const char*> {};

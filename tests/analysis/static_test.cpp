@@ -158,15 +158,17 @@ TEST(Static, EdgeTouchingCubesMoveIndependently) {
 }
 
 // Corotational formulation: a rigid rotation of the whole body by 90 degrees gives
-// zero internal force (K^ u - b^ = 0) and zero stress.
-TEST(Static, RigidRotationGivesNoForceAndNoStress) {
+// zero internal force (K^ u - b^ = 0) and zero stress; `extra`: more deck text (composite
+// elements, whose fine cells share their element's rotation).
+void check_rigid_rotation(const std::string& extra) {
   const std::string yaml =
       "lattice: {h: 0.1, origin: [0.3, -0.2, 0.1], dims: [6, 4, 3]}\n"
       "materials: {m: {E: 1.0e9, nu: 0.25, rho: 1000}}\n"
       "geometry:\n  - add: {sphere: {centre: [0.6, 0.0, 0.25], radius: 0.3}}\n"
       "boundary: {fixed: [{where: {all: true}}]}\n"
       "analysis: {type: static, formulation: corotational}\n"
-      "solver: {type: direct}\n";
+      "solver: {type: direct}\n" +
+      extra;
   Job job(PETSC_COMM_WORLD, yaml);
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
@@ -219,6 +221,16 @@ TEST(Static, RigidRotationGivesNoForceAndNoStress) {
   EXPECT_GT(max_lin, 0.1 * scale);
   VecDestroy(&f);
   VecDestroy(&b);
+}
+
+TEST(Static, RigidRotationGivesNoForceAndNoStress) {
+  check_rigid_rotation("");
+}
+
+TEST(Static, CompositeRigidRotationGivesNoForceAndNoStress) {
+  for (int level : {1, 2})
+    check_rigid_rotation("discretization: {type: composite, level: " + std::to_string(level) +
+                         "}\n");
 }
 
 }  // namespace
