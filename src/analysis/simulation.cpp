@@ -114,6 +114,9 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   }
   options.first_level = l;
   options.hierarchy.min_levels = l + 1;
+  PetscBool rotate = PETSC_TRUE;
+  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_rotate", &rotate, nullptr));
+  options.rotate_composite = rotate;
   mg_ = std::make_unique<multigrid::Multigrid>(comm_, model_.lattice, model_.copies,
                                                model_.partition, model_.layout, model_.dm, options);
   if (hexcut_pc) PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));

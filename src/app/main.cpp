@@ -28,7 +28,9 @@ const char* kUsage =
     "PETSc options on the command line override the deck's solver.petsc_options.\n"
     "hexcut options: -hexcut_superblock N (cells per partition block side, default 8),\n"
     "                -hexcut_max_steps N (stop after N steps; continue with --restart),\n"
-    "                -hexcut_residual_history FILE (Krylov residuals of every solve)\n"
+    "                -hexcut_residual_history FILE (Krylov residuals of every solve),\n"
+    "                -hexcut_composite_rotate false (composite elements: rebuild blocks\n"
+    "                by Galerkin products at rotation updates instead of rotating them)\n"
     "Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.\n"
     "See doc/user-guide.md for the deck reference.\n";
 

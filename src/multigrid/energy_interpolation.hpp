@@ -66,9 +66,9 @@ std::vector<char> irregular_cells(const hierarchy::Level& fine, const hierarchy:
 
 /// What energy_interpolation did (collective sums).
 struct EnergyStats {
-  std::int64_t rows = 0;      // fine copies whose rows were minimized
-  double energy_before = 0;   // trace(P^T A P) of the trilinear rows
-  double energy_after = 0;    // and of the minimized ones
+  std::int64_t rows = 0;     // fine copies whose rows were minimized
+  double energy_before = 0;  // trace(P^T A P) of the trilinear rows
+  double energy_after = 0;   // and of the minimized ones
   int iterations = 0;
 };
 
@@ -81,8 +81,8 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const hierarchy::Level& fine,
                                     const hierarchy::Level& coarse,
                                     const std::vector<char>& coarse_irregular,
                                     const assembly::CellOperator& op,
-                                    const std::vector<double>& diag_inv, Vec mask,
-                                    int iterations, InterpolationRows* rows, EnergyStats* stats);
+                                    const std::vector<double>& diag_inv, Vec mask, int iterations,
+                                    InterpolationRows* rows, EnergyStats* stats);
 
 /// The interpolation from `coarse` to `fine` as a parallel BAIJ matrix (block size 3): the
 /// stored rows, and trilinear weights times I3 for the others. Creates *P.

@@ -38,6 +38,8 @@ struct Multigrid::LevelData {
 
 namespace {
 
+const double kIdentity3[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
 PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
   PetscFunctionBeginUser;
   Multigrid* mg;
@@ -266,7 +268,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     if (opt_.first_level > 0) PetscCall(build_composite_mask());
   }
   const int first = opt_.first_level;
+  bool rotated = false;
+  if (!full && first > 0) PetscCall(rotate_composite_blocks(cells, &rotated));
   mark_dirty_fine_cells(cells, full);
+  if (rotated) std::fill(d0.dirty.begin(), d0.dirty.end(), 0);
   if (first == 0) PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
   if (uses_schwarz(0)) PetscCall(build_schwarz(0));
@@ -279,8 +284,23 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     // The interpolation to level l-1 depends on its operator: recomputed on full rebuilds
     // (kept across rotation-only updates, whose operators differ by rotations only).
     if (full && l - 1 >= first) PetscCall(build_interpolation(l - 1));
-    rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
-                                     l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
+    if (rotated && l <= first) {
+      // Levels below the composite one are not needed; the composite blocks were rotated.
+      rebuilt_[l] = l == first ? std::int64_t(d.stored->dirty().size()) : 0;
+    } else {
+      rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
+                                       l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
+    }
+    if (l == first && first > 0 && !rotated) {
+      // The rotation each composite block now has (its fine cells share it).
+      const auto& D0 = levels_[0].layout;
+      composite_rotation_.resize(9 * composite_fine_cell_.size());
+      for (std::size_t C = 0; C < composite_fine_cell_.size(); ++C)
+        std::copy_n(cells.rotation.size() == 9 * D0.cells.size()
+                        ? &cells.rotation[9 * std::size_t(composite_fine_cell_[C])]
+                        : kIdentity3,
+                    9, &composite_rotation_[9 * C]);
+    }
     if (l == 1) {
       // The rotations the rebuilt blocks saw: those of all their children.
       const auto& dirty = d.stored->dirty();
@@ -624,6 +644,47 @@ PetscErrorCode Multigrid::build_composite_mask() {
   PetscCall(VecRestoreArrayRead(ml, &a));
   PetscCall(DMRestoreLocalVector(d.dm, &ml));
   d.stored->set_mask(composite_mask_);
+  // Rotating a masked block is the Galerkin product of the rotated fine cells only where
+  // the mask commutes with the rotation: every vertex fixed in all components or in none.
+  int rotatable = 1;
+  for (std::size_t v = 0; 3 * v < composite_mask_.size(); ++v)
+    rotatable &= composite_mask_[3 * v] == composite_mask_[3 * v + 1] &&
+                 composite_mask_[3 * v] == composite_mask_[3 * v + 2];
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &rotatable, 1, MPI_INT, MPI_LAND, comm_));
+  rotatable_ = rotatable;
+  // A fine cell of every composite element (its first descendant), for its rotation.
+  composite_fine_cell_.resize(levels_[first].layout.cells.size());
+  for (std::size_t C = 0; C < composite_fine_cell_.size(); ++C) {
+    std::int32_t c = std::int32_t(C);
+    for (int k = first; k > 0; --k) c = data_[k]->children.child[data_[k]->children.offset[c]];
+    composite_fine_cell_[C] = c;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::rotate_composite_blocks(const assembly::CellData& cells, bool* done) {
+  PetscFunctionBeginUser;
+  *done = false;
+  const auto& D0 = levels_[0].layout;
+  // Only for rotation groups that are the composite elements (the simulation sets them).
+  int ok = opt_.rotate_composite && rotatable_ && !composite_rotation_.empty() &&
+           cells.num_rotation_groups == std::int32_t(composite_fine_cell_.size()) &&
+           cells.rotation.size() == 9 * D0.cells.size();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_LAND, comm_));
+  if (!ok) PetscFunctionReturn(0);
+  const std::size_t n = composite_fine_cell_.size();
+  std::vector<double> dR(9 * n);
+  for (std::size_t C = 0; C < n; ++C) {
+    const double* R = &cells.rotation[9 * std::size_t(composite_fine_cell_[C])];
+    const double* R0 = &composite_rotation_[9 * C];
+    for (int i = 0; i < 3; ++i)  // dR = R R0^T
+      for (int j = 0; j < 3; ++j)
+        dR[9 * C + 3 * i + j] =
+            R[3 * i] * R0[3 * j] + R[3 * i + 1] * R0[3 * j + 1] + R[3 * i + 2] * R0[3 * j + 2];
+    std::copy_n(R, 9, &composite_rotation_[9 * C]);
+  }
+  data_[opt_.first_level]->stored->rotate(dR);
+  *done = true;
   PetscFunctionReturn(0);
 }
 

@@ -75,6 +75,13 @@ struct Options {
   // false: the coarsest level is assembled but not factored (the composite system for
   // another solver: coarsest_matrix()).
   bool factor_coarsest = true;
+  // Composite elements, rotation-only updates: rotate each stored composite block by the
+  // change of its element's rotation, A_E <- dR^ A_E dR^T (Wu 2015, sec. 4.2: the element
+  // matrix is rotated, not rebuilt), instead of the Galerkin product of the rotated fine
+  // cells. Both are the same matrix (the fine cells of an element share its rotation; doc/
+  // theory.md, "Composite elements"); taken only where no composite vertex has some but not
+  // all of its components fixed.
+  bool rotate_composite = true;
 };
 
 class Multigrid {
@@ -154,6 +161,9 @@ class Multigrid {
   PetscErrorCode build_coarsest();
   PetscErrorCode build_interpolation(int l);
   PetscErrorCode build_composite_mask();
+  /// Rotation-only update of the composite level by rotating its blocks; false in *done
+  /// when it does not apply (then the Galerkin chain rebuilds them).
+  PetscErrorCode rotate_composite_blocks(const assembly::CellData& cells, bool* done);
   bool has_irregular_parents(int l) const;  // some cell of level l+1 is irregular
   bool uses_schwarz(int l) const;
   PetscErrorCode build_schwarz(int l);
@@ -175,7 +185,10 @@ class Multigrid {
   std::vector<std::vector<char>> irregular_;  // per level l >= 1: its irregular cells (canonical)
   std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
   std::vector<EnergyStats> energy_stats_;
-  std::vector<double> composite_mask_;  // first level > 0: per local DOF, 0 fixed
+  std::vector<double> composite_mask_;             // first level > 0: per local DOF, 0 fixed
+  std::vector<std::int32_t> composite_fine_cell_;  // per local composite element: a fine cell
+  std::vector<double> composite_rotation_;         // per element: rotation its block has
+  bool rotatable_ = false;  // every composite vertex fixed in all components or none
   Mat shell_ = nullptr;
   KSP coarse_ksp_ = nullptr;
   Mat coarse_matrix_ = nullptr;

@@ -4,6 +4,7 @@
 
 #include "backend/loop.hpp"
 #include "backend/restriction.hpp"
+#include "element/corotation.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
@@ -51,6 +52,17 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
     pack_symmetric(parent, &packed_[kPackedSize * C]);
   }
   return rebuilt;
+}
+
+void StoredCells::rotate(const std::vector<double>& dR) {
+  const std::size_t n = num_cells();
+  dirty_.assign(n, 1);
+  double A[576];
+  for (std::size_t C = 0; C < n; ++C) {
+    unpack_symmetric(&packed_[kPackedSize * C], A);
+    element::rotate_element_matrix(&dR[9 * C], A, A);
+    pack_symmetric(A, &packed_[kPackedSize * C]);
+  }
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {

@@ -36,8 +36,11 @@ class StoredCells final : public assembly::CellOperator {
                         const assembly::CellPositions& fine_position, const Children& children,
                         const std::vector<char>& fine_dirty,
                         const InterpolationRows* rows = nullptr);
-  /// Per local cell: rebuilt by the last galerkin().
+  /// Per local cell: rebuilt by the last galerkin() (or rotated by rotate()).
   const std::vector<char>& dirty() const { return dirty_; }
+  /// A_e <- R^ A_e R^T for every local cell e, R = dR[9 e..] (row-major 3x3 per cell); marks
+  /// all cells in dirty().
+  void rotate(const std::vector<double>& dR);
   /// Dirichlet mask (1 free, 0 fixed; 3 values per local copy, owned and ghosts): galerkin()
   /// zeroes the rows and columns of fixed DOFs in the blocks it builds, D A_C D with
   /// D = diag(mask) (composite elements). Empty: none.
