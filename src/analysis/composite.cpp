@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <vector>
 
 namespace hexcut::analysis {
@@ -205,13 +207,18 @@ PetscErrorCode check_composite_supports(MPI_Comm comm, multigrid::Multigrid& mg,
   if (prescribed_out) *prescribed_out = counts[1];
   if (counts[1] > 0 && counts[0] > 2 * counts[1]) {
     const auto& w = deck.discretization.where;
-    PetscCall(PetscPrintf(
-        comm,
-        "%swarning: composite elements of level %d hold %lld fine DOFs fixed where the supports "
-        "prescribe %lld (%.1fx): a support on a region smaller than a composite element "
-        "clamps the whole element (doc/user-guide.md, \"Discretization\")\n",
-        w.prefix().c_str(), mg.first_level(), (long long)counts[0], (long long)counts[1],
-        double(counts[0]) / double(counts[1])));
+    char msg[512];
+    std::snprintf(msg, sizeof msg,
+                  "%swarning: composite elements of level %d hold %lld fine DOFs fixed where the "
+                  "supports prescribe %lld (%.1fx): a support on a region smaller than a "
+                  "composite element clamps the whole element (doc/user-guide.md, "
+                  "\"Discretization\")\n",
+                  w.prefix().c_str(), mg.first_level(), (long long)counts[0], (long long)counts[1],
+                  double(counts[0]) / double(counts[1]));
+    // Once per run, not again for each topology a cut makes (unless the numbers change).
+    static std::string last;
+    if (last != msg) PetscCall(PetscPrintf(comm, "%s", msg));
+    last = msg;
   }
   PetscFunctionReturn(0);
 }

@@ -1,5 +1,5 @@
 // Composite elements as the simulation's discretization (doc/theory.md, "Composite elements";
-// Wu 2015, ch. 4). The composite elements are the cells of multigrid hierarchy level l: each
+// Wu 2014, ch. 4). The composite elements are the cells of multigrid hierarchy level l: each
 // a connected piece of a (2^l)^3 block of fine cells, so pieces that cuts or holes separate
 // get their own elements. Their DOFs are level l's vertex copies; the fine displacement is
 // u = I u~ with I = P_0 P_1 ... P_(l-1) the trilinear interpolation of the hierarchy, and the

@@ -431,7 +431,10 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // (The matrix-free gmg operator reads the current rotations; its hierarchy stays.)
     if (solves_ == 0) {
       PetscCall(assemble(w));
-      if (composite()) frozen_rotations = model_.cells.rotation;
+      // The composite operator is built once per step; the fine one (level 0 with gmg)
+      // reads the iterate's rotations at each application, like the hexahedra's.
+      if (composite() && (mg_->first_level() > 0 || !hexcut_pc_))
+        frozen_rotations = model_.cells.rotation;
     }
     // r = fixed - 2 f_alg - (a0 + a1 alpha1) M du - a1 alpha2 K^ du; no equation on the
     // prescribed rows.
@@ -443,11 +446,13 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // runs: the fine operator with the rotations the composite one was built from (its
     // Galerkin product), not those of the iterate, or the iteration would converge to
     // (A - A_k) u = r.
-    if (composite()) {
+    if (composite() && !frozen_rotations.empty()) {
       std::swap(model_.cells.rotation, frozen_rotations);
       const PetscErrorCode ierr = mg_->apply_level(0, u_new, b);
       std::swap(model_.cells.rotation, frozen_rotations);
       PetscCall(ierr);
+    } else if (composite()) {
+      PetscCall(mg_->apply_level(0, u_new, b));
     } else {
       Mat A;
       PetscCall(KSPGetOperators(ksp_, &A, nullptr));

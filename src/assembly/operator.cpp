@@ -70,14 +70,17 @@ void cell_rotations(const topology::DofLayout& D, const CellData& C, const doubl
     }
     return;
   }
-  // The cells are of equal volume: the volume average of F is the mean, and the polar
-  // factor of the sum is that of the mean.
+  // The mean of F over the group's cells weighted by their shear modulus (the polar factor
+  // of the sum is that of the mean): in a homogeneous group the volume average (the cells
+  // are of equal volume; Wu 2014, eq. 4.7); where a group mixes a stiff and a soft material
+  // the rotation follows the stiff part, which carries the force (doc/theory.md,
+  // "Composite elements").
   std::vector<double> sum(9 * std::size_t(C.num_rotation_groups), 0.0), group_R(sum.size());
   for (std::size_t e = 0; e < n; ++e) {
     double u24[24], F[9];
     element::gather_cell(u_local, D.cell_corners[e].data(), u24);
     element::deformation_gradient_at_centre(u24, C.h, F);
-    for (int k = 0; k < 9; ++k) sum[9 * std::size_t(C.rotation_group[e]) + k] += F[k];
+    for (int k = 0; k < 9; ++k) sum[9 * std::size_t(C.rotation_group[e]) + k] += C.mu[e] * F[k];
   }
   for (std::int32_t g = 0; g < C.num_rotation_groups; ++g)
     element::polar_rotation(&sum[9 * std::size_t(g)], &group_R[9 * std::size_t(g)]);

@@ -26,7 +26,7 @@ struct CellData {
   bool identity_rotations = true;       // every rotation is I (linear runs)
   // Rotation groups (composite elements, doc/theory.md "Composite elements"): per local cell
   // its group; the cells of a group (all on this rank) share one rotation, the polar factor
-  // of their mean centre deformation gradient (Wu 2015, eq. 4.7). Empty: each cell its own.
+  // of their mean centre deformation gradient (Wu 2014, eq. 4.7). Empty: each cell its own.
   std::vector<std::int32_t> rotation_group;
   std::int32_t num_rotation_groups = 0;
   std::vector<std::array<double, 3>> origin;  // per local cell: minimum corner [m]

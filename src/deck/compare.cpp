@@ -63,7 +63,8 @@ std::vector<std::string> physics_differences(const std::string& before, const st
   static const std::set<std::string> ignored = {"analysis.steps", "analysis.end_time",
                                                 "analysis.tolerance", "analysis.max_iterations"};
   std::vector<std::string> out;
-  for (const char* section : {"lattice", "materials", "geometry", "boundary", "cuts", "analysis"})
+  for (const char* section :
+       {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "discretization"})
     compare(a[section], b[section], section, ignored, &out);
   return out;
 }

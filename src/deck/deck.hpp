@@ -147,7 +147,7 @@ struct Solver {
 /// The simulation's discretization (doc/theory.md, "Composite elements"): the fine hexahedra
 /// of the lattice, or composite elements, the cells of multigrid hierarchy level `level`
 /// (each a connected piece of a (2^level)^3 block of fine cells) with Galerkin matrices
-/// K~ = I^T K I, M~ = I^T M I from the fine cells they contain (Wu 2015, eq. 4.3-4.5).
+/// K~ = I^T K I, M~ = I^T M I from the fine cells they contain (Wu 2014, eq. 4.3-4.5).
 struct Discretization {
   enum class Type { hexahedra, composite };
   Type type = Type::hexahedra;

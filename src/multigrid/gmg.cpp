@@ -779,6 +779,13 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
       opt_.presmooth, opt_.postsmooth,
       opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
+  if (opt_.first_level > 0)
+    PetscCall(PetscViewerASCIIPrintf(
+        viewer,
+        "  composite elements: the cycle starts on level %d; levels below it hold the Galerkin "
+        "chain only%s\n",
+        opt_.first_level,
+        rotatable_ && opt_.rotate_composite ? " (rotation updates rotate its blocks)" : ""));
   // "duplicated": cells that share their position with another cell of the level, the
   // pieces of one 2x2x2 block that holes, thin gaps or cuts separate.
   PetscCall(PetscViewerASCIIPrintf(

@@ -346,7 +346,7 @@ TEST(Composite, StateStaysInTheCompositeSpaceThroughALateCut) {
 TEST(Composite, FineCellsShareTheirElementsRotation) {
   // Corotational composite runs: the rotation of every fine cell is that of its composite
   // element, the polar factor of the mean centre deformation gradient of the element's fine
-  // cells (Wu 2015, eq. 4.7), here for a bending-and-twisting field of large rotations.
+  // cells (Wu 2014, eq. 4.7), here for a bending-and-twisting field of large rotations.
   for (int level : {1, 2}) {
     Job job(PETSC_COMM_WORLD,
             cantilever_deck(0.025, "{type: static, formulation: corotational}", "{type: direct}") +
