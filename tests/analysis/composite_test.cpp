@@ -100,6 +100,21 @@ double galerkin_difference(Job& job, const assembly::OperatorWeights& w) {
   return d;
 }
 
+/// Rotations of the job's local cells from the displacement u(x) of every local copy (x its
+/// reference position), as a corotational step sets them (assembly::update_rotations);
+/// returns that displacement (3 per local copy).
+template <class Field>
+std::vector<double> rotate_cells_by(Job& job, const Field& u_of_x) {
+  const auto& D = job.model.layout;
+  std::vector<double> a(3 * std::size_t(D.num_local()));
+  for (std::int32_t i = 0; i < D.num_local(); ++i) {
+    const Eigen::Vector3d u = u_of_x(job.position(D.copies[i]));
+    for (int d = 0; d < 3; ++d) a[3 * i + d] = u[d];
+  }
+  assembly::update_rotations(D, a.data(), job.model.cells);
+  return a;
+}
+
 TEST(Composite, LevelZeroIsTheFineModel) {
   // The composite path (restriction, fixed values, lifting, prolongation) at level 0 is
   // the identity: the same displacement as the hexahedra to round-off, with the direct
@@ -354,24 +369,17 @@ TEST(Composite, FineCellsShareTheirElementsRotation) {
     const auto& D = job.model.layout;
     auto& cells = job.model.cells;
     ASSERT_EQ(cells.rotation_group.size(), D.cells.size());
-    Vec ul;
-    DMGetLocalVector(job.model.dm, &ul);
-    PetscScalar* a;
-    VecGetArray(ul, &a);
-    for (std::int32_t i = 0; i < D.num_local(); ++i) {
-      const auto x = job.position(D.copies[i]);
+    const auto a = rotate_cells_by(job, [](const Eigen::Vector3d& x) {
       const Eigen::Matrix3d R =
           Eigen::AngleAxisd(1.2 * x[0], Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(0.8 * x[0], Eigen::Vector3d::UnitX()).toRotationMatrix();
-      const Eigen::Vector3d u = R * x - x + Eigen::Vector3d(0.01 * x[1], 0, 0.02 * x[2]);
-      for (int d = 0; d < 3; ++d) a[3 * i + d] = u[d];
-    }
-    assembly::update_rotations(D, a, cells);
+      return Eigen::Vector3d(R * x - x + Eigen::Vector3d(0.01 * x[1], 0, 0.02 * x[2]));
+    });
     // Independently: sum F per element, polar factor by Eigen's SVD (U V^T).
     std::map<std::int32_t, Eigen::Matrix3d> sum;
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
       double u24[24], F[9];
-      element::gather_cell(a, D.cell_corners[e].data(), u24);
+      element::gather_cell(a.data(), D.cell_corners[e].data(), u24);
       element::deformation_gradient_at_centre(u24, cells.h, F);
       Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Fm(F);
       auto it = sum.emplace(cells.rotation_group[e], Eigen::Matrix3d::Zero()).first;
@@ -385,8 +393,6 @@ TEST(Composite, FineCellsShareTheirElementsRotation) {
       Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Re(&cells.rotation[9 * e]);
       worst = std::max(worst, (Re - Rg).norm());
     }
-    VecRestoreArray(ul, &a);
-    DMRestoreLocalVector(job.model.dm, &ul);
     EXPECT_EQ(sum.size(), job.sim->multigrid()->level(level).layout.cells.size());
     EXPECT_LT(worst, 1e-10) << "level " << level;
   }
@@ -409,23 +415,13 @@ TEST(Composite, RotatedBlocksAreTheGalerkinProductsOfTheRotatedFineCells) {
     // rotation does not commute with (such runs rebuild by Galerkin products).
     deck.replace(deck.find("      components: [y]\n"), 22, "");
     Job job(PETSC_COMM_WORLD, deck);
-    const auto& D = job.model.layout;
     auto set_field = [&](double angle) {
-      Vec ul;
-      DMGetLocalVector(job.model.dm, &ul);
-      PetscScalar* a;
-      VecGetArray(ul, &a);
-      for (std::int32_t i = 0; i < D.num_local(); ++i) {
-        const auto x = job.position(D.copies[i]);
+      rotate_cells_by(job, [angle](const Eigen::Vector3d& x) {
         const Eigen::Matrix3d R =
             Eigen::AngleAxisd(angle * x[0], Eigen::Vector3d(0.2, 1, 0.3).normalized())
                 .toRotationMatrix();
-        const Eigen::Vector3d u = R * x - x;
-        for (int d = 0; d < 3; ++d) a[3 * i + d] = u[d];
-      }
-      assembly::update_rotations(D, a, job.model.cells);
-      VecRestoreArray(ul, &a);
-      DMRestoreLocalVector(job.model.dm, &ul);
+        return Eigen::Vector3d(R * x - x);
+      });
     };
     const assembly::OperatorWeights w{1.3, 250.0, true};
     set_field(0.4);
