@@ -78,9 +78,9 @@ struct Options {
   // Composite elements, rotation-only updates: rotate each stored composite block by the
   // change of its element's rotation, A_E <- dR^ A_E dR^T (Wu 2014, secs. 4.4.2-4.4.3:
   // composite matrices are cached and corotated per element), instead of the Galerkin
-  // product of the rotated fine cells. Both are the same matrix (the fine cells of an element share
-  // its rotation; doc/ theory.md, "Composite elements"); taken only where no composite vertex has
-  // some but not all of its components fixed.
+  // product of the rotated fine cells. Both are the same matrix (the fine cells of an
+  // element share its rotation; doc/theory.md, "Composite elements"); taken only where no
+  // composite vertex has some but not all of its components fixed.
   bool rotate_composite = true;
 };
 
