@@ -90,17 +90,15 @@ PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, do
   PetscCall(restrict_composite(mg, prescribed, den));
   {
     PetscInt n;
-    const PetscScalar *m, *nu, *de;
-    PetscScalar* g;
+    const PetscScalar *m, *nu;
+    PetscScalar* de;
     PetscCall(VecGetLocalSize(num, &n));
     PetscCall(VecGetArrayRead(mc, &m));
-    PetscCall(VecGetArrayRead(den, &de));
     PetscCall(VecGetArrayRead(num, &nu));
-    PetscCall(VecGetArray(den, &g));  // den becomes g~ (0 on free DOFs)
-    for (PetscInt i = 0; i < n; ++i) g[i] = m[i] == 0.0 && de[i] > 0.0 ? nu[i] / de[i] : 0.0;
-    PetscCall(VecRestoreArray(den, &g));
+    PetscCall(VecGetArray(den, &de));  // den becomes g~ (0 on free DOFs)
+    for (PetscInt i = 0; i < n; ++i) de[i] = m[i] == 0.0 && de[i] > 0.0 ? nu[i] / de[i] : 0.0;
+    PetscCall(VecRestoreArray(den, &de));
     PetscCall(VecRestoreArrayRead(num, &nu));
-    PetscCall(VecRestoreArrayRead(den, &de));
     PetscCall(VecRestoreArrayRead(mc, &m));
   }
   Vec g = den;

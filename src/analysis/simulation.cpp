@@ -123,24 +123,8 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   // One rotation per composite element (corotational runs): the fine cells of an element
   // form a rotation group (assembly::cell_rotations), so the Galerkin blocks of the rotated
   // fine cells are the element's block rotated, R^ K~ R^T.
-  {
-    auto& cells = model_.cells;
-    const auto& D0 = model_.layout;
-    std::vector<std::int32_t> ancestor(D0.cells.begin(), D0.cells.end());
-    for (int k = 0; k < l; ++k)
-      for (auto& c : ancestor) c = mg_->level(k).parent[c];
-    const auto& top = mg_->level(l);
-    std::vector<std::int32_t> local(top.graph.num_cells(), -1);
-    for (std::size_t C = 0; C < top.layout.cells.size(); ++C)
-      local[top.layout.cells[C]] = std::int32_t(C);
-    cells.rotation_group.resize(ancestor.size());
-    for (std::size_t e = 0; e < ancestor.size(); ++e) {
-      PetscCheck(local[ancestor[e]] >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                 "a composite element is not on the rank of its fine cells");
-      cells.rotation_group[e] = local[ancestor[e]];
-    }
-    cells.num_rotation_groups = std::int32_t(top.layout.cells.size());
-  }
+  model_.cells.rotation_group = mg_->composite_elements();
+  model_.cells.num_rotation_groups = l > 0 ? std::int32_t(mg_->level(l).layout.cells.size()) : 0;
   PetscCall(KSPSetDM(ksp_, mg_->dm(l)));
   PetscCall(KSPSetDMActive(ksp_, PETSC_FALSE));
   PetscCall(composite_positions(*mg_, &composite_coordinates_));

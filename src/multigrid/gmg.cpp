@@ -176,6 +176,25 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
              "(at most log2(super-block) + 1 = %d with super-blocks of %d cells)",
              first, first + 1, L, 1 + int(std::lround(std::log2(double(partition.superblock)))),
              partition.superblock);
+  // Composite runs: each fine cell's ancestor on the first level (its composite element; all
+  // on this rank), and a fine cell of each such element, whose rotation is the element's.
+  if (first > 0) {
+    const auto& fine = levels_[0].layout;
+    const auto& top = levels_[first];
+    std::vector<std::int32_t> local(top.graph.num_cells(), -1);
+    for (std::size_t C = 0; C < top.layout.cells.size(); ++C)
+      local[top.layout.cells[C]] = std::int32_t(C);
+    composite_element_.resize(fine.cells.size());
+    composite_fine_cell_.assign(top.layout.cells.size(), -1);
+    for (std::size_t e = 0; e < fine.cells.size(); ++e) {
+      std::int32_t c = fine.cells[e];
+      for (int k = 0; k < first; ++k) c = levels_[k].parent[c];
+      PetscCheck(local[c] >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                 "gmg: a composite element is not on the rank of its fine cells");
+      composite_element_[e] = local[c];
+      if (composite_fine_cell_[local[c]] < 0) composite_fine_cell_[local[c]] = std::int32_t(e);
+    }
+  }
   const auto& D0 = levels_[first].layout;
   PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
                            PETSC_DETERMINE, this, &shell_));
@@ -270,8 +289,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   const int first = opt_.first_level;
   bool rotated = false;
   if (!full && first > 0) PetscCall(rotate_composite_blocks(cells, &rotated));
-  mark_dirty_fine_cells(cells, full);
-  if (rotated) std::fill(d0.dirty.begin(), d0.dirty.end(), 0);
+  // Rotated composite blocks need no fine cell: none is compared or marked.
+  if (rotated)
+    d0.dirty.assign(levels_[0].layout.cells.size(), 0);
+  else
+    mark_dirty_fine_cells(cells, full);
   if (first == 0) PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
   if (uses_schwarz(0)) PetscCall(build_schwarz(0));
@@ -652,13 +674,6 @@ PetscErrorCode Multigrid::build_composite_mask() {
                  composite_mask_[3 * v] == composite_mask_[3 * v + 2];
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &rotatable, 1, MPI_INT, MPI_LAND, comm_));
   rotatable_ = rotatable;
-  // A fine cell of every composite element (its first descendant), for its rotation.
-  composite_fine_cell_.resize(levels_[first].layout.cells.size());
-  for (std::size_t C = 0; C < composite_fine_cell_.size(); ++C) {
-    std::int32_t c = std::int32_t(C);
-    for (int k = first; k > 0; --k) c = data_[k]->children.child[data_[k]->children.offset[c]];
-    composite_fine_cell_[C] = c;
-  }
   PetscFunctionReturn(0);
 }
 

@@ -124,6 +124,10 @@ class Multigrid {
   Mat fine_operator() const { return shell_; }
   /// The level the cycle starts on (Options::first_level) and its DM.
   int first_level() const { return opt_.first_level; }
+  /// Per local fine cell (level 0's layout order): the local index of its ancestor on the
+  /// first level, its composite element (composite runs' rotation groups); empty when the
+  /// first level is 0 (every cell its own).
+  const std::vector<std::int32_t>& composite_elements() const { return composite_element_; }
   DM dm(int l) const;
   /// Prints levels, cells, DOFs, stored numbers and memory (-gmg_view).
   PetscErrorCode view(PetscViewer viewer) const;
@@ -186,6 +190,7 @@ class Multigrid {
   std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
   std::vector<EnergyStats> energy_stats_;
   std::vector<double> composite_mask_;             // first level > 0: per local DOF, 0 fixed
+  std::vector<std::int32_t> composite_element_;    // per local fine cell: its first-level cell
   std::vector<std::int32_t> composite_fine_cell_;  // per local composite element: a fine cell
   std::vector<double> composite_rotation_;         // per element: rotation its block has
   bool rotatable_ = false;  // every composite vertex fixed in all components or none
