@@ -150,4 +150,13 @@ MidpointForce midpoint_force(const double* K, double h, const double* x24, const
 /// about c: the result has the resultant of f and no moment (points on a line: unchanged).
 void remove_moment(int n, const double* z, double* f);
 
+/// remove_moment() for the points of cells interpolated from n nodes: the fine corners
+/// z_q = sum_a w_qa z~_a carry the forces whose restriction to the nodes is f~_a =
+/// sum_q w_qa f_q, and G = sum_q w_q w_q^T (n x n, row-major; the Gram matrix of the
+/// weights over all corners) holds all that the moment, the centroid and the inertia of
+/// the corners need. On return f~ is the restriction of remove_moment() applied to the
+/// corners (exact; doc/theory.md, "Composite elements"). z: node positions (3 per node),
+/// f: node forces (3 per node).
+void remove_moment_interpolated(int n, const double* z, const double* G, double* f);
+
 }  // namespace hexcut::element

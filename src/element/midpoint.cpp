@@ -1,5 +1,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
+#include <vector>
 
 #include "element/corotation.hpp"
 #include "element/kinematics.hpp"
@@ -19,6 +20,16 @@ double dot24(const double* a, const double* b) {
   return s;
 }
 
+
+/// theta with J theta = moment, or false where J is singular (points on a line).
+bool moment_rotation(const Eigen::Matrix3d& J, const Vec3& moment, Vec3* theta) {
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * J.trace()))
+    return false;
+  *theta = ldlt.solve(moment);
+  return true;
+}
+
 }  // namespace
 
 void remove_moment(int n, const double* z, double* f) {
@@ -34,12 +45,44 @@ void remove_moment(int n, const double* z, double* f) {
     J += zq.squaredNorm() * Eigen::Matrix3d::Identity() - zq * zq.transpose();
   }
   // Points on a line have a singular J; they keep their (tiny) moment.
-  const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);
-  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * J.trace())) return;
-  const Vec3 theta = ldlt.solve(moment);
+  Vec3 theta;
+  if (!moment_rotation(J, moment, &theta)) return;
   for (int q = 0; q < n; ++q) {
     const Vec3 t = theta.cross(corner(z, q) - c);
     for (int i = 0; i < 3; ++i) f[3 * q + i] -= t[i];
+  }
+}
+
+void remove_moment_interpolated(int n, const double* z, const double* G, double* f) {
+  // With z_q - c = sum_a w_qa (z~_a - c) (the weights of a corner sum to 1): the centroid
+  // is sum_a m_a z~_a / sum m_a (m_a = sum_b G_ab, the corners' weight on node a), the
+  // moment sum_a (z~_a - c) x f~_a, S = sum_q (z_q - c)(z_q - c)^T = sum_ab G_ab (z~_a -
+  // c)(z~_b - c)^T, and the restricted correction sum_b G_ab theta x (z~_b - c).
+  std::vector<double> m(std::size_t(n), 0.0);
+  double total = 0.0;
+  Vec3 c = Vec3::Zero();
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) m[std::size_t(a)] += G[std::size_t(n) * a + b];
+    total += m[std::size_t(a)];
+    c += m[std::size_t(a)] * corner(z, a);
+  }
+  if (!(total > 0.0)) return;
+  c /= total;
+  Vec3 moment = Vec3::Zero();
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (int a = 0; a < n; ++a) {
+    const Vec3 za = corner(z, a) - c;
+    moment += za.cross(corner(f, a));
+    for (int b = 0; b < n; ++b)
+      S += G[std::size_t(n) * a + b] * za * (corner(z, b) - c).transpose();
+  }
+  const Eigen::Matrix3d J = S.trace() * Eigen::Matrix3d::Identity() - S;
+  Vec3 theta;
+  if (!moment_rotation(J, moment, &theta)) return;
+  for (int a = 0; a < n; ++a) {
+    Vec3 t = Vec3::Zero();
+    for (int b = 0; b < n; ++b) t += G[std::size_t(n) * a + b] * theta.cross(corner(z, b) - c);
+    for (int i = 0; i < 3; ++i) f[3 * a + i] -= t[i];
   }
 }
 
