@@ -148,7 +148,7 @@ PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, do
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm) {
+PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm, Vec add) {
   PetscFunctionBeginUser;
   const int l = mg.first_level();
   Vec t, c;
@@ -156,6 +156,7 @@ PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm) 
   PetscCall(DMGetGlobalVector(mg.dm(l), &c));
   PetscCall(VecPointwiseMult(t, r, mg.mask(0)));
   PetscCall(restrict_composite(mg, t, c));
+  if (add) PetscCall(VecAXPY(c, 1.0, add));
   PetscCall(VecPointwiseMult(c, c, mg.mask(l)));
   PetscCall(VecNorm(c, NORM_2, norm));
   PetscCall(DMRestoreGlobalVector(mg.dm(l), &c));

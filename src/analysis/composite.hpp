@@ -44,9 +44,10 @@ PetscErrorCode prolong_composite(multigrid::Multigrid& mg, Vec composite, Vec fi
 PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc,
                              double* deviation = nullptr);
 
-/// ||I_f^T (m0 r)||_2: the composite residual of a fine one (free fine rows only; the rows
-/// of fixed composite DOFs dropped). Collective.
-PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm);
+/// ||I_f^T (m0 r) + add||_2: the composite residual of a fine one (free fine rows only; the
+/// rows of fixed composite DOFs dropped), plus a composite part `add` (may be null; a
+/// global vector of the composite level). Collective.
+PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm, Vec add = nullptr);
 
 /// Reference positions [m] of the composite level's owned copies (bs 3), for the rigid-body
 /// modes of the AMG solvers. Collective.

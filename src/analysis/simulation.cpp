@@ -143,10 +143,12 @@ Simulation::~Simulation() {
   KSPDestroy(&ksp_);
   MatDestroy(&A_);
   VecDestroy(&composite_u_);
+  VecDestroy(&composite_state_);
   VecDestroy(&composite_coordinates_);
 }
 
-PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess) {
+PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess,
+                                        Vec composite_add) {
   PetscFunctionBeginUser;
   EventScope scope(events().solve);
   if (!composite()) {
@@ -163,6 +165,13 @@ PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, b
   PetscCall(DMGetGlobalVector(mg_->dm(l), &bc));
   double deviation = 0.0;
   PetscCall(composite_rhs(*mg_, b, bc, composite_u_, &deviation));
+  if (composite_add) {  // on the free composite DOFs only
+    Vec t;
+    PetscCall(DMGetGlobalVector(mg_->dm(l), &t));
+    PetscCall(VecPointwiseMult(t, composite_add, mg_->mask(l)));
+    PetscCall(VecAXPY(bc, 1.0, t));
+    PetscCall(DMRestoreGlobalVector(mg_->dm(l), &t));
+  }
   if (deviation > 1e-3 && !deviation_warned_) {
     // Prescribed values that vary over a composite element cannot be met exactly.
     PetscCall(PetscPrintf(comm_,
@@ -175,6 +184,24 @@ PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, b
   PetscCall(solve::solve(ksp_, bc, composite_u_, rec));
   PetscCall(DMRestoreGlobalVector(mg_->dm(l), &bc));
   PetscCall(prolong_composite(*mg_, composite_u_, u));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Simulation::composite_state_matches(const State& s, bool* matches) {
+  PetscFunctionBeginUser;
+  // Whether composite_state_ is the state's u~ (u = I u~): true after a composite
+  // mid-point step of this simulation, false after a cut (a new simulation), a restart or
+  // any other change of s.u; checked on the numbers, not only on the step count.
+  *matches = false;
+  if (!composite_state_ || composite_state_step_ != s.step) PetscFunctionReturn(0);
+  ScratchVec t;
+  PetscCall(borrow(model_.dm, t));
+  PetscCall(prolong_composite(*mg_, composite_state_, t));
+  PetscCall(VecAXPY(t, -1.0, s.u));
+  PetscReal d = 0, un = 0;
+  PetscCall(VecNorm(t, NORM_INFINITY, &d));
+  PetscCall(VecNorm(s.u, NORM_INFINITY, &un));
+  *matches = d <= 1e-12 * un;
   PetscFunctionReturn(0);
 }
 
@@ -368,7 +395,7 @@ PetscErrorCode Simulation::linearized_step(State& s, Vec u_new, solve::SolveReco
 }
 
 PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar,
-                                         solve::SolveRecord* total) {
+                                         double* fbar_work, solve::SolveRecord* total) {
   PetscFunctionBeginUser;
   // The mid-point form of the step (doc/theory.md "Mid-point corotational step"): with
   // du = u - u_n and the Newmark velocity v_n+1 = (2/dt) du - v_n, the step solves
@@ -398,6 +425,22 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   double change = 0.0, energy[2];
   solves_ = 0;
   std::vector<double> frozen_rotations;  // composite runs: those of the solver's operator
+  // Composite runs with u_n = I u~_n (every step but the first after a set-up or a cut):
+  // the iterations after the predictor's (whose u_new, with the prescribed values at the
+  // fine DOFs, is not I of anything) compute the force on the composite level, fc = -2 I^T
+  // fbar, the same numbers for a fraction of the work (analysis/composite_midpoint.hpp).
+  bool composite_force = false;
+  if (composite() && mg_->first_level() > 0) {
+    PetscBool on = PETSC_TRUE;
+    PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_midpoint", &on, nullptr));
+    if (on) PetscCall(composite_state_matches(s, &composite_force));
+    if (composite_force && !composite_elements_)
+      composite_elements_ =
+          std::make_unique<CompositeElements>(build_composite_elements(*mg_, model_.cells));
+  }
+  ScratchVec fc;
+  if (composite_force) PetscCall(fc.get(mg_->dm(mg_->first_level())));
+  bool force_on_composite = false;  // the last force is fc, not fbar
   {
     EventScope scope(events().energy);
     PetscCall(
@@ -406,8 +449,15 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   for (;;) {
     {
       EventScope scope(events().energy);
-      PetscCall(assembly::assemble_midpoint_force(model_.dm, model_.layout, model_.cells, start_d_,
-                                                  s.u, u_new, fbar, energy));
+      force_on_composite = composite_force && solves_ > 0;
+      if (force_on_composite) {
+        PetscCall(composite_midpoint_force(*mg_, *composite_elements_, composite_state_,
+                                           composite_u_, fc, model_.cells, energy));
+        PetscCall(VecScale(fc, -2.0));
+      } else {
+        PetscCall(assembly::assemble_midpoint_force(model_.dm, model_.layout, model_.cells,
+                                                    start_d_, s.u, u_new, fbar, energy));
+      }
     }
     // The operator (and preconditioner) of the predictor's mid-point serves the whole
     // step: b below uses that same operator, so the iteration still converges to r = 0,
@@ -424,7 +474,10 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // prescribed rows.
     PetscCall(VecWAXPY(du, -1.0, s.u, u_new));
     PetscCall(assembly::apply(model_.dm, model_.layout, model_.cells, inertia, du, r));
-    PetscCall(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar));
+    if (force_on_composite)
+      PetscCall(VecAYPX(r, -1.0, fixed));  // -2 I^T fbar is added on the composite level
+    else
+      PetscCall(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar));
     PetscCall(assembly::set_prescribed_values(model_.boundary.constraints, t1, 0.0, r));
     // b = A u_k + r with the solver's own operator (constrained: identity rows); composite
     // runs: the fine operator with the rotations the composite one was built from (its
@@ -451,8 +504,9 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // Composite runs: the composite residual I_f^T r (the fine one does not vanish).
     PetscReal rn = 0, bn = 0;
     if (composite()) {
-      PetscCall(composite_norm(*mg_, r, &rn));
-      PetscCall(composite_norm(*mg_, b, &bn));
+      Vec add = force_on_composite ? Vec(fc) : nullptr;
+      PetscCall(composite_norm(*mg_, r, &rn, add));
+      PetscCall(composite_norm(*mg_, b, &bn, add));
     } else {
       PetscCall(VecNorm(r, NORM_2, &rn));
       PetscCall(VecNorm(b, NORM_2, &bn));
@@ -469,7 +523,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     }
     PetscCall(VecCopy(u_new, u_prev));
     solve::SolveRecord rec;
-    PetscCall(solve_system(b, u_new, &rec));
+    PetscCall(solve_system(b, u_new, &rec, true, force_on_composite ? Vec(fc) : nullptr));
     ++solves_;
     total->iterations += rec.iterations;
     total->setup_seconds += rec.setup_seconds;
@@ -484,8 +538,21 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     PetscCall(VecNorm(du, NORM_2, &dn));
     change = dn > 0 ? dk / dn : dk;
   }
-  // fbar and the energies are those of the converged u_n+1.
+  // fbar (or fc) and the energies are those of the converged u_n+1.
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, energy, 2, MPI_DOUBLE, MPI_SUM, comm_));
+  *fbar_work = NAN;
+  if (composite() && mg_->first_level() > 0 && solves_ > 0) {
+    // u_n+1 = I u~_n+1: the next step may start on the composite level.
+    if (force_on_composite) {  // du . fbar = du~ . I^T fbar = -1/2 (u~_n+1 - u~_n) . fc
+      PetscScalar w0, w1;
+      PetscCall(VecDot(composite_u_, fc, &w1));
+      PetscCall(VecDot(composite_state_, fc, &w0));
+      *fbar_work = -0.5 * (w1 - w0);
+    }
+    if (!composite_state_) PetscCall(VecDuplicate(composite_u_, &composite_state_));
+    PetscCall(VecCopy(composite_u_, composite_state_));
+    composite_state_step_ = s.step + 1;
+  }
   energy_.strain0 = energy[0];
   energy_.strain1 = energy[1];
   PetscFunctionReturn(0);
@@ -509,8 +576,9 @@ PetscErrorCode Simulation::newmark_step(State& s, solve::SolveRecord* record) {
   PetscCall(VecAXPY(loads, 1.0, tmp));
   const bool midpoint = corotational() && an.rotations == deck::Analysis::Rotations::iterated;
   solve::SolveRecord rec;
+  double fbar_work = NAN;
   if (midpoint) {
-    PetscCall(midpoint_step(s, loads, u_new, fbar, &rec));
+    PetscCall(midpoint_step(s, loads, u_new, fbar, &fbar_work, &rec));
   } else {
     PetscCall(linearized_step(s, u_new, &rec));
     solves_ = 1;
@@ -534,7 +602,7 @@ PetscErrorCode Simulation::newmark_step(State& s, solve::SolveRecord* record) {
   s.step += 1;
   EventScope scope(events().energy);
   if (midpoint) {
-    PetscCall(account_energy(u0, v0, s, loads, fbar, energy_.strain0, energy_.strain1));
+    PetscCall(account_energy(u0, v0, s, loads, fbar, energy_.strain0, energy_.strain1, fbar_work));
   } else {
     double strain0 = cached_strain_, strain1 = 0.0;
     if (cached_step_ != s.step - 1) PetscCall(strain_energy(u0, &strain0));
@@ -560,7 +628,7 @@ PetscErrorCode Simulation::internal_force(Vec u, Vec f) {
 }
 
 PetscErrorCode Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar,
-                                          double strain0, double strain1) {
+                                          double strain0, double strain1, double fbar_work) {
   PetscFunctionBeginUser;
   const auto& an = deck_.analysis;
   const bool lumped = an.mass == deck::Analysis::Mass::lumped;
@@ -608,7 +676,9 @@ PetscErrorCode Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec lo
     PetscCall(assembly::apply(model_.dm, model_.layout, model_.cells, {0.0, 1.0 / an.dt, lumped},
                               tmp, rho));
     PetscCall(VecAXPBYPCZ(rho, 1.0 / an.dt, -0.5, 1.0, Ddu, load_sum));
-    if (fbar) {
+    if (!std::isnan(fbar_work)) {
+      // du . fbar is fbar_work (the composite level computed fbar); added below.
+    } else if (fbar) {
       PetscCall(VecAXPY(rho, 1.0, fbar));
     } else {
       PetscCall(internal_force(u0, tmp));
@@ -622,7 +692,7 @@ PetscErrorCode Simulation::account_energy(Vec u0, Vec v0, const State& s, Vec lo
       // the fixed composite DOFs, the composite supports' reactions.
       PetscScalar w;
       PetscCall(VecDot(du, rho, &w));
-      e.support_work = w;
+      e.support_work = w + (std::isnan(fbar_work) ? 0.0 : fbar_work);
     } else {
       const PetscScalar* p;
       PetscCall(VecGetArrayRead(rho, &p));

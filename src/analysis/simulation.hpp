@@ -6,9 +6,11 @@
 
 #include <petscksp.h>
 
+#include <cmath>
 #include <functional>
 #include <memory>
 
+#include "analysis/composite_midpoint.hpp"
 #include "analysis/energy.hpp"
 #include "analysis/model.hpp"
 #include "analysis/state.hpp"
@@ -83,20 +85,24 @@ class Simulation {
   /// u: the initial guess) with the KSP; composite runs solve its Galerkin projection on the
   /// composite level and return u = I u~ (doc/theory.md, "Composite elements"). `guess`:
   /// start a composite solve from the last composite solution (else zero).
-  PetscErrorCode solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess = true);
+  PetscErrorCode solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess = true,
+                              Vec composite_add = nullptr);
+  PetscErrorCode composite_state_matches(const State& s, bool* matches);
   PetscErrorCode assemble(const assembly::OperatorWeights& w);
   PetscErrorCode refresh_rotations(Vec u);
   /// One Newmark solve with the rotations of s.u (linear runs: identity).
   PetscErrorCode linearized_step(State& s, Vec u_new, solve::SolveRecord* rec);
-  /// The mid-point corotational step; fbar: its mean internal force at the end.
-  PetscErrorCode midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar,
+  /// The mid-point corotational step; fbar: its mean internal force at the end, unless
+  /// the composite level computed it: then fbar_work gets du . fbar (NaN otherwise).
+  PetscErrorCode midpoint_step(const State& s, Vec load_sum, Vec u_new, Vec fbar, double* fbar_work,
                                solve::SolveRecord* rec);
   PetscErrorCode kinetic(Vec v, double* energy);
   PetscErrorCode strain_energy(Vec u, double* energy);
   /// Fills energy_ for the step (u0, v0) -> (s.u, s.v). fbar: the step's mean internal
   /// force, or null to compute (f(u0) + f(u1))/2; used only for support reactions.
+  /// fbar_work (composite runs; NaN: unused): du . fbar, in place of fbar.
   PetscErrorCode account_energy(Vec u0, Vec v0, const State& s, Vec load_sum, Vec fbar,
-                                double strain0, double strain1);
+                                double strain0, double strain1, double fbar_work = NAN);
   PetscErrorCode internal_force(Vec u, Vec f);
 
   MPI_Comm comm_;
@@ -106,7 +112,12 @@ class Simulation {
   std::unique_ptr<multigrid::Multigrid> mg_;
   bool hexcut_pc_ = false;
   KSP ksp_ = nullptr;
-  Vec composite_u_ = nullptr;            // the last composite solution (initial guess)
+  Vec composite_u_ = nullptr;  // the last composite solution (initial guess)
+  // Corotational composite runs: u~ of the state at step composite_state_step_ (u = I u~),
+  // and the composite elements' data for the mid-point force on the composite level.
+  Vec composite_state_ = nullptr;
+  std::int64_t composite_state_step_ = -1;
+  std::unique_ptr<CompositeElements> composite_elements_;
   Vec composite_coordinates_ = nullptr;  // composite copies' reference positions (AMG)
   bool supports_checked_ = false, deviation_warned_ = false;
   bool assembled_ = false;

@@ -31,6 +31,8 @@ const char* kUsage =
     "                -hexcut_residual_history FILE (Krylov residuals of every solve),\n"
     "                -hexcut_composite_rotate false (composite elements: rebuild blocks\n"
     "                by Galerkin products at rotation updates instead of rotating them)\n"
+    "                -hexcut_composite_midpoint false (composite elements: mid-point\n"
+    "                force from the fine cells instead of the composite level)\n"
     "Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.\n"
     "See doc/user-guide.md for the deck reference.\n";
 

@@ -20,7 +20,6 @@ double dot24(const double* a, const double* b) {
   return s;
 }
 
-
 /// theta with J theta = moment, or false where J is singular (points on a line).
 bool moment_rotation(const Eigen::Matrix3d& J, const Vec3& moment, Vec3* theta) {
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(J);

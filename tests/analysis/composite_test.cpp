@@ -8,13 +8,13 @@
 // (cut_test); 1 rank = 2 ranks (analysis_mpi_test); the mid-point force computed on the
 // composite level is I^T of the fine grouped one.
 #include "analysis/composite.hpp"
-#include "analysis/composite_midpoint.hpp"
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <cmath>
 #include <map>
 
+#include "analysis/composite_midpoint.hpp"
 #include "analysis/cutting.hpp"
 #include "assembly/boundary.hpp"
 #include "element/kinematics.hpp"
@@ -448,11 +448,12 @@ TEST(Composite, MidpointForceOnTheCompositeLevelIsTheRestrictedFineForce) {
   // rotations; on a holed, cut, two-material body whose elements are partly filled, under
   // large rotations (a bend and a twist of up to 1.4 rad).
   for (int level : {1, 2}) {
-    const std::string deck = holed_block("{type: dynamic, formulation: corotational, dt: 0.01, "
-                                         "steps: 1}") +
+    const std::string deck = holed_block(
+                                 "{type: dynamic, formulation: corotational, dt: 0.01, "
+                                 "steps: 1}") +
                              "solver: {type: direct}\n" +
-                             "discretization: {type: composite, level: " +
-                             std::to_string(level) + "}\n";
+                             "discretization: {type: composite, level: " + std::to_string(level) +
+                             "}\n";
     Job job(PETSC_COMM_WORLD, deck);
     analysis::Cutter cutter(job.deck, job.model.lattice);
     analysis::CutReport r;
@@ -494,8 +495,8 @@ TEST(Composite, MidpointForceOnTheCompositeLevelIsTheRestrictedFineForce) {
     std::vector<double> d0;
     double e_fine[2], e_comp[2];
     HEXCUT_CALL(assembly::corotated_displacements(job.model.dm, job.model.layout, cells, u0, &d0));
-    HEXCUT_CALL(assembly::assemble_midpoint_force(job.model.dm, job.model.layout, cells, d0, u0,
-                                                  u1, f, e_fine));
+    HEXCUT_CALL(assembly::assemble_midpoint_force(job.model.dm, job.model.layout, cells, d0, u0, u1,
+                                                  f, e_fine));
     HEXCUT_CALL(analysis::restrict_composite(mg, f, fref));
     const std::vector<double> fine_rotations = cells.rotation;
     std::fill(cells.rotation.begin(), cells.rotation.end(), 0.0);
@@ -508,9 +509,10 @@ TEST(Composite, MidpointForceOnTheCompositeLevelIsTheRestrictedFineForce) {
     double rot = 0.0;
     for (std::size_t k = 0; k < fine_rotations.size(); ++k)
       rot = std::max(rot, std::abs(fine_rotations[k] - cells.rotation[k]));
-    std::printf("level %d: |f~ - I^T f| / |I^T f| = %.2e (|I^T f| = %.3g N), energies %.6g %.6g J "
-                "(fine %.6g %.6g), rotations differ by %.1e\n",
-                level, nd / nref, nref, e_comp[0], e_comp[1], e_fine[0], e_fine[1], rot);
+    std::printf(
+        "level %d: |f~ - I^T f| / |I^T f| = %.2e (|I^T f| = %.3g N), energies %.6g %.6g J "
+        "(fine %.6g %.6g), rotations differ by %.1e\n",
+        level, nd / nref, nref, e_comp[0], e_comp[1], e_fine[0], e_fine[1], rot);
     EXPECT_GT(nref, 0.0);
     EXPECT_LT(nd / nref, 1e-11);
     EXPECT_NEAR(e_comp[0], e_fine[0], 1e-11 * e_fine[0]);
