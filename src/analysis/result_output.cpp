@@ -324,7 +324,8 @@ PetscErrorCode ResultOutput::write_cell_values(std::int64_t step, const std::str
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ResultOutput::write_step(const State& s, bool corotational) {
+PetscErrorCode ResultOutput::write_step(const State& s, bool corotational,
+                                        const std::vector<double>* composite_element) {
   PetscFunctionBeginUser;
   const auto& o = deck_.output;
   writer_.begin_step(s.step, s.time);
@@ -340,6 +341,8 @@ PetscErrorCode ResultOutput::write_step(const State& s, bool corotational) {
   if (o.has_field("velocity")) PetscCall(write_point_vector(s.step, "velocity", s.v, "m/s"));
   if (o.has_field("acceleration"))
     PetscCall(write_point_vector(s.step, "acceleration", s.a, "m/s^2"));
+  if (o.has_field("composite_element") && composite_element)
+    PetscCall(write_cell_values(s.step, "composite_element", 1, *composite_element, "1"));
   const bool any_stress = o.has_field("stress") || o.has_field("von_mises") ||
                           o.has_field("pressure") || o.has_field("principal_stress") ||
                           o.has_field("principal_directions");

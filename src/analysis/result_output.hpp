@@ -44,8 +44,10 @@ class ResultOutput {
   /// The model's topology changed (a cut): the point tables are rebuilt, and the next
   /// written step carries the new mesh.
   PetscErrorCode topology_changed();
-  /// Writes one output step with the fields the deck asks for.
-  PetscErrorCode write_step(const State& s, bool corotational);
+  /// Writes one output step with the fields the deck asks for. composite_element: per
+  /// local cell the id of its composite element (field composite_element; null otherwise).
+  PetscErrorCode write_step(const State& s, bool corotational,
+                            const std::vector<double>* composite_element = nullptr);
   void record_solve(std::int64_t step, double time, const solve::SolveRecord& r);
   PetscErrorCode write_checkpoint(const State& s);
   /// The cut links stored with the current checkpoint (empty: none, or no checkpoint), in

@@ -131,6 +131,17 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   PetscFunctionReturn(0);
 }
 
+std::vector<double> Simulation::composite_element_ids() const {
+  if (!composite() || !mg_) return {};
+  const int l = mg_->first_level();
+  const auto& cells = mg_->level(l).layout.cells;
+  const auto& element = mg_->composite_elements();
+  std::vector<double> ids(model_.layout.cells.size());
+  for (std::size_t e = 0; e < ids.size(); ++e)
+    ids[e] = l == 0 ? double(model_.layout.cells[e]) : double(cells[std::size_t(element[e])]);
+  return ids;
+}
+
 bool Simulation::uses_multigrid() const {
   return hexcut_pc_;
 }

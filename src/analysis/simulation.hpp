@@ -72,6 +72,10 @@ class Simulation {
   /// linear systems are solved on the composite level, the state stays on the fine copies
   /// (u = I u~; doc/theory.md, "Composite elements").
   bool composite() const;
+  /// Composite runs: per local fine cell the id of its composite element (the canonical
+  /// cell id of the composite level, the same on every rank count), as output values;
+  /// empty for hexahedra.
+  std::vector<double> composite_element_ids() const;
   KSP ksp() const { return ksp_; }
   /// The multigrid (solver gmg or gmg-cycles; composite runs: always, it holds the composite
   /// level and the interpolation to it), else null.

@@ -32,6 +32,7 @@ struct Context {
   const std::vector<Material>* materials = nullptr;
   double h = 1.0;                                // lattice cell size, sets default tolerances
   std::vector<std::string>* warnings = nullptr;  // Deck::warnings
+  bool composite = false;                        // discretization: composite (output fields)
 
   int line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
   [[noreturn]] void fail(const YAML::Node& n, const std::string& msg) const {
@@ -953,13 +954,15 @@ Output parse_output(const Context& c, const YAML::Node& n) {
   }
   if (n["fields"]) {
     static const std::set<std::string> known = {
-        "displacement", "velocity",         "acceleration",         "stress", "von_mises",
-        "pressure",     "principal_stress", "principal_directions", "surface"};
+        "displacement", "velocity",         "acceleration",         "stress",  "von_mises",
+        "pressure",     "principal_stress", "principal_directions", "surface", "composite_element"};
     if (!n["fields"].IsSequence()) c.fail(n["fields"], "output.fields must be a list");
     o.fields.clear();
     for (const auto& f : n["fields"]) {
       auto name = get_string(c, f, "field");
       if (!known.count(name)) c.fail(f, "unknown output field '" + name + "'");
+      if (name == "composite_element" && !c.composite)
+        c.fail(f, "output field 'composite_element' needs discretization: {type: composite}");
       o.fields.push_back(name);
     }
   }
@@ -1089,9 +1092,9 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
   if (root["boundary"]) parse_boundary(c, root["boundary"], d);
   if (root["cuts"]) d.cuts = parse_cuts(c, root["cuts"]);
   if (root["analysis"]) d.analysis = parse_analysis(c, root["analysis"]);
-  if (root["discretization"])
-    d.discretization = parse_discretization(c, root["discretization"]);
+  if (root["discretization"]) d.discretization = parse_discretization(c, root["discretization"]);
   if (root["solver"]) d.solver = parse_solver(c, root["solver"]);
+  c.composite = d.discretization.type == Discretization::Type::composite;
   d.output.where = {path, 1};
   if (root["output"]) d.output = parse_output(c, root["output"]);
   if (d.output.name.empty()) {
