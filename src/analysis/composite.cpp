@@ -71,23 +71,79 @@ PetscErrorCode prolong_composite(multigrid::Multigrid& mg, Vec composite, Vec fi
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, double* deviation) {
+PetscErrorCode composite_interpolation_matrix(const multigrid::Multigrid& mg, Mat* I) {
+  PetscFunctionBeginUser;
+  const int l = mg.first_level();
+  PetscCheck(l >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
+             "composite level 0 has no interpolation");
+  *I = nullptr;
+  for (int k = 0; k < l; ++k) {
+    Mat Pk;
+    PetscCall(MatConvert(mg.interpolation(k), MATAIJ, MAT_INITIAL_MATRIX, &Pk));
+    if (!*I) {
+      *I = Pk;
+    } else {
+      Mat IP;
+      PetscCall(MatMatMult(*I, Pk, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &IP));
+      PetscCall(MatDestroy(I));
+      PetscCall(MatDestroy(&Pk));
+      *I = IP;
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+CompositePreimage::~CompositePreimage() {
+  KSPDestroy(&ksp_);
+  MatDestroy(&gram_);
+  MatDestroy(&I_);
+}
+
+PetscErrorCode CompositePreimage::solve(Vec x, Vec xc, double* misfit) {
+  PetscFunctionBeginUser;
+  if (!ksp_) {
+    PetscCall(composite_interpolation_matrix(mg_, &I_));
+    PetscCall(MatTransposeMatMult(I_, I_, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &gram_));
+    PetscCall(MatSetOption(gram_, MAT_SPD, PETSC_TRUE));
+    PetscCall(KSPCreate(PetscObjectComm((PetscObject)gram_), &ksp_));
+    PetscCall(KSPSetOperators(ksp_, gram_, gram_));
+    PetscCall(KSPSetType(ksp_, KSPPREONLY));
+    PC pc;
+    PetscCall(KSPGetPC(ksp_, &pc));
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    PetscCall(KSPSetUp(ksp_));
+  }
+  Vec rhs, back;
+  PetscCall(VecDuplicate(xc, &rhs));
+  PetscCall(VecDuplicate(x, &back));
+  PetscCall(MatMultTranspose(I_, x, rhs));
+  PetscCall(KSPSolve(ksp_, rhs, xc));
+  PetscCall(MatMult(I_, xc, back));
+  PetscCall(VecAXPY(back, -1.0, x));
+  PetscReal d = 0, n = 0;
+  PetscCall(VecNorm(back, NORM_INFINITY, &d));
+  PetscCall(VecNorm(x, NORM_INFINITY, &n));
+  *misfit = n > 0 ? d / n : d;
+  PetscCall(VecDestroy(&back));
+  PetscCall(VecDestroy(&rhs));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode composite_prescribed(multigrid::Multigrid& mg, Vec values, Vec g) {
   PetscFunctionBeginUser;
   const int l = mg.first_level();
   Vec m0 = mg.mask(0), mc = mg.mask(l);
-  DM d0 = mg.dm(0), dc = mg.dm(l);
-  Vec prescribed, t, lift, num, den;
-  PetscCall(DMGetGlobalVector(d0, &prescribed));
-  PetscCall(DMGetGlobalVector(d0, &t));
-  PetscCall(DMGetGlobalVector(d0, &lift));
-  PetscCall(DMGetGlobalVector(dc, &num));
-  PetscCall(DMGetGlobalVector(dc, &den));
+  Vec prescribed, t, num;
+  PetscCall(DMGetGlobalVector(mg.dm(0), &prescribed));
+  PetscCall(DMGetGlobalVector(mg.dm(0), &t));
+  PetscCall(DMGetGlobalVector(mg.dm(l), &num));
   // g~ = I^T (g on prescribed DOFs) / I^T (1 on prescribed DOFs) on the fixed composite DOFs.
   PetscCall(VecSet(prescribed, 1.0));
   PetscCall(VecAXPY(prescribed, -1.0, m0));
-  PetscCall(VecPointwiseMult(t, prescribed, b));
+  PetscCall(VecPointwiseMult(t, prescribed, values));
   PetscCall(restrict_composite(mg, t, num));
-  PetscCall(restrict_composite(mg, prescribed, den));
+  PetscCall(restrict_composite(mg, prescribed, g));
   {
     PetscInt n;
     const PetscScalar *m, *nu;
@@ -95,13 +151,31 @@ PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, do
     PetscCall(VecGetLocalSize(num, &n));
     PetscCall(VecGetArrayRead(mc, &m));
     PetscCall(VecGetArrayRead(num, &nu));
-    PetscCall(VecGetArray(den, &de));  // den becomes g~ (0 on free DOFs)
+    PetscCall(VecGetArray(g, &de));  // the denominator becomes g~ (0 on free DOFs)
     for (PetscInt i = 0; i < n; ++i) de[i] = m[i] == 0.0 && de[i] > 0.0 ? nu[i] / de[i] : 0.0;
-    PetscCall(VecRestoreArray(den, &de));
+    PetscCall(VecRestoreArray(g, &de));
     PetscCall(VecRestoreArrayRead(num, &nu));
     PetscCall(VecRestoreArrayRead(mc, &m));
   }
-  Vec g = den;
+  PetscCall(DMRestoreGlobalVector(mg.dm(l), &num));
+  PetscCall(DMRestoreGlobalVector(mg.dm(0), &t));
+  PetscCall(DMRestoreGlobalVector(mg.dm(0), &prescribed));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, double* deviation) {
+  PetscFunctionBeginUser;
+  const int l = mg.first_level();
+  Vec m0 = mg.mask(0), mc = mg.mask(l);
+  DM d0 = mg.dm(0), dc = mg.dm(l);
+  Vec prescribed, t, lift, g;
+  PetscCall(DMGetGlobalVector(d0, &prescribed));
+  PetscCall(DMGetGlobalVector(d0, &t));
+  PetscCall(DMGetGlobalVector(d0, &lift));
+  PetscCall(DMGetGlobalVector(dc, &g));
+  PetscCall(composite_prescribed(mg, b, g));
+  PetscCall(VecSet(prescribed, 1.0));
+  PetscCall(VecAXPY(prescribed, -1.0, m0));
   PetscReal gmax = 0.0;
   PetscCall(VecNorm(g, NORM_INFINITY, &gmax));
   // The lifting u_L = I g~ and the fine residual of the free rows b - A u_L.
@@ -140,8 +214,7 @@ PetscErrorCode composite_rhs(multigrid::Multigrid& mg, Vec b, Vec bc, Vec uc, do
     PetscCall(VecRestoreArrayRead(g, &ga));
     PetscCall(VecRestoreArrayRead(mc, &m));
   }
-  PetscCall(DMRestoreGlobalVector(dc, &den));
-  PetscCall(DMRestoreGlobalVector(dc, &num));
+  PetscCall(DMRestoreGlobalVector(dc, &g));
   PetscCall(DMRestoreGlobalVector(d0, &lift));
   PetscCall(DMRestoreGlobalVector(d0, &t));
   PetscCall(DMRestoreGlobalVector(d0, &prescribed));

@@ -22,12 +22,42 @@
 // support); the prescribed fine DOFs then hold (I g~), not g, where g varies.
 #pragma once
 
+#include <petscksp.h>
 #include <petscvec.h>
 
 #include "deck/deck.hpp"
 #include "multigrid/gmg.hpp"
 
 namespace hexcut::analysis {
+
+/// The composite interpolation I = P_0 P_1 ... P_(l-1) as an AIJ matrix (fine rows,
+/// composite columns; l = mg.first_level() >= 1). The caller destroys it. Collective.
+PetscErrorCode composite_interpolation_matrix(const multigrid::Multigrid& mg, Mat* I);
+
+/// x~ with I x~ = x for fine vectors x in range(I) (a state after a cut or a restart, whose
+/// composite values are not known): the least-squares solution of (I^T I) x~ = I^T x, by a
+/// Cholesky factorization of I^T I (SPD: every corner of an element carries weight from
+/// one of its fine cells' corners) made on first use. `misfit` gets ||I x~ - x||_inf /
+/// ||x||_inf (0 for x = 0): round-off when x is in range(I).
+class CompositePreimage {
+ public:
+  explicit CompositePreimage(multigrid::Multigrid& mg) : mg_(mg) {}
+  ~CompositePreimage();
+  CompositePreimage(const CompositePreimage&) = delete;
+  CompositePreimage& operator=(const CompositePreimage&) = delete;
+  /// x: fine global vector; xc: global vector of mg.dm(mg.first_level()). Collective.
+  PetscErrorCode solve(Vec x, Vec xc, double* misfit);
+
+ private:
+  multigrid::Multigrid& mg_;
+  Mat I_ = nullptr, gram_ = nullptr;
+  KSP ksp_ = nullptr;
+};
+
+/// g~ on the fixed composite DOFs (0 on free ones), global vector of the composite level:
+/// the weighted mean of the entries of `values` on the prescribed fine DOFs that each
+/// fixed composite DOF carries weight from (mg.mask(0) marks the free fine DOFs). Collective.
+PetscErrorCode composite_prescribed(multigrid::Multigrid& mg, Vec values, Vec g);
 
 /// x~ = I^T x: the fine global vector `fine` restricted to the composite level of `mg`
 /// (mg.first_level()); `composite` is a global vector of that level. Collective.

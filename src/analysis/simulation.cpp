@@ -155,6 +155,7 @@ Simulation::~Simulation() {
   MatDestroy(&A_);
   VecDestroy(&composite_u_);
   VecDestroy(&composite_state_);
+  VecDestroy(&composite_velocity_);
   VecDestroy(&composite_coordinates_);
 }
 
@@ -198,21 +199,41 @@ PetscErrorCode Simulation::solve_system(Vec b, Vec u, solve::SolveRecord* rec, b
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Simulation::composite_state_matches(const State& s, bool* matches) {
+PetscErrorCode Simulation::composite_state(const State& s, bool* known) {
   PetscFunctionBeginUser;
-  // Whether composite_state_ is the state's u~ (u = I u~): true after a composite
-  // mid-point step of this simulation, false after a cut (a new simulation), a restart or
-  // any other change of s.u; checked on the numbers, not only on the step count.
-  *matches = false;
-  if (!composite_state_ || composite_state_step_ != s.step) PetscFunctionReturn(0);
+  // u~_n, v~_n with u_n = I u~_n, v_n = I v~_n: those the last step of this simulation left
+  // (checked on the numbers, so that any other change of the state is noticed), else the
+  // preimages of u_n and v_n (after a set-up, a cut or a restart: the state is in range(I),
+  // doc/theory.md "Composite elements"). Not known when they do not interpolate the state.
+  *known = false;
+  const int l = mg_->first_level();
   ScratchVec t;
   PetscCall(borrow(model_.dm, t));
-  PetscCall(prolong_composite(*mg_, composite_state_, t));
-  PetscCall(VecAXPY(t, -1.0, s.u));
-  PetscReal d = 0, un = 0;
-  PetscCall(VecNorm(t, NORM_INFINITY, &d));
-  PetscCall(VecNorm(s.u, NORM_INFINITY, &un));
-  *matches = d <= 1e-12 * un;
+  if (composite_state_ && composite_state_step_ == s.step) {
+    bool same = true;
+    for (auto [xc, x] : {std::pair{composite_state_, s.u}, std::pair{composite_velocity_, s.v}}) {
+      PetscCall(prolong_composite(*mg_, xc, t));
+      PetscCall(VecAXPY(t, -1.0, x));
+      PetscReal d = 0, n = 0;
+      PetscCall(VecNorm(t, NORM_INFINITY, &d));
+      PetscCall(VecNorm(x, NORM_INFINITY, &n));
+      same = same && d <= 1e-12 * n;
+    }
+    if (same) {
+      *known = true;
+      PetscFunctionReturn(0);
+    }
+  }
+  if (!composite_state_) {
+    PetscCall(DMCreateGlobalVector(mg_->dm(l), &composite_state_));
+    PetscCall(VecDuplicate(composite_state_, &composite_velocity_));
+  }
+  if (!composite_preimage_) composite_preimage_ = std::make_unique<CompositePreimage>(*mg_);
+  double mu = 0, mv = 0;
+  PetscCall(composite_preimage_->solve(s.u, composite_state_, &mu));
+  PetscCall(composite_preimage_->solve(s.v, composite_velocity_, &mv));
+  *known = mu <= 1e-10 && mv <= 1e-10;
+  composite_state_step_ = *known ? s.step : -1;
   PetscFunctionReturn(0);
 }
 
@@ -436,15 +457,27 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   double change = 0.0, energy[2];
   solves_ = 0;
   std::vector<double> frozen_rotations;  // composite runs: those of the solver's operator
-  // Composite runs with u_n = I u~_n (every step but the first after a set-up or a cut):
-  // the iterations after the predictor's (whose u_new, with the prescribed values at the
-  // fine DOFs, is not I of anything) compute the force on the composite level, fc = -2 I^T
-  // fbar, the same numbers for a fraction of the work (analysis/composite_midpoint.hpp).
-  bool composite_force = false;
+  // Composite runs work with u~_n, v~_n (composite_state): the predictor is u~_n + dt v~_n
+  // with g~(t_n+1) on the fixed composite DOFs, so that every iterate is u = I u~ and the
+  // mid-point force can be computed on the composite level, fc = -2 I^T fbar: the same
+  // numbers for a fraction of the work (analysis/composite_midpoint.hpp).
+  bool known = false, composite_force = false;
   if (composite() && mg_->first_level() > 0) {
+    const int l = mg_->first_level();
+    PetscCall(composite_state(s, &known));
+    if (known) {
+      if (!composite_u_) PetscCall(DMCreateGlobalVector(mg_->dm(l), &composite_u_));
+      ScratchVec g;
+      PetscCall(g.get(mg_->dm(l)));
+      PetscCall(composite_prescribed(*mg_, u_new, g));
+      PetscCall(VecWAXPY(composite_u_, an.dt, composite_velocity_, composite_state_));
+      PetscCall(VecPointwiseMult(composite_u_, composite_u_, mg_->mask(l)));
+      PetscCall(VecAXPY(composite_u_, 1.0, g));
+      PetscCall(prolong_composite(*mg_, composite_u_, u_new));
+    }
     PetscBool on = PETSC_TRUE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_midpoint", &on, nullptr));
-    if (on) PetscCall(composite_state_matches(s, &composite_force));
+    composite_force = known && on;
     if (composite_force && !composite_elements_)
       composite_elements_ =
           std::make_unique<CompositeElements>(build_composite_elements(*mg_, model_.cells));
@@ -452,7 +485,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   ScratchVec fc;
   if (composite_force) PetscCall(fc.get(mg_->dm(mg_->first_level())));
   bool force_on_composite = false;  // the last force is fc, not fbar
-  {
+  if (!composite_force) {
     EventScope scope(events().energy);
     PetscCall(
         assembly::corotated_displacements(model_.dm, model_.layout, model_.cells, s.u, &start_d_));
@@ -460,7 +493,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   for (;;) {
     {
       EventScope scope(events().energy);
-      force_on_composite = composite_force && solves_ > 0;
+      force_on_composite = composite_force;
       if (force_on_composite) {
         PetscCall(composite_midpoint_force(*mg_, *composite_elements_, composite_state_,
                                            composite_u_, fc, model_.cells, energy));
@@ -552,15 +585,18 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   // fbar (or fc) and the energies are those of the converged u_n+1.
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, energy, 2, MPI_DOUBLE, MPI_SUM, comm_));
   *fbar_work = NAN;
-  if (composite() && mg_->first_level() > 0 && solves_ > 0) {
-    // u_n+1 = I u~_n+1: the next step may start on the composite level.
+  if (known) {
+    // u_n+1 = I u~_n+1 and v_n+1 = I v~_n+1 (the Newmark update is linear): the state the
+    // next step starts from.
     if (force_on_composite) {  // du . fbar = du~ . I^T fbar = -1/2 (u~_n+1 - u~_n) . fc
       PetscScalar w0, w1;
       PetscCall(VecDot(composite_u_, fc, &w1));
       PetscCall(VecDot(composite_state_, fc, &w0));
       *fbar_work = -0.5 * (w1 - w0);
     }
-    if (!composite_state_) PetscCall(VecDuplicate(composite_u_, &composite_state_));
+    // v~_n+1 = (2/dt)(u~_n+1 - u~_n) - v~_n
+    PetscCall(VecAXPY(composite_state_, -1.0, composite_u_));
+    PetscCall(VecAXPBY(composite_velocity_, -2.0 / an.dt, -1.0, composite_state_));
     PetscCall(VecCopy(composite_u_, composite_state_));
     composite_state_step_ = s.step + 1;
   }

@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 
+#include "analysis/composite.hpp"
 #include "analysis/composite_midpoint.hpp"
 #include "analysis/energy.hpp"
 #include "analysis/model.hpp"
@@ -91,7 +92,7 @@ class Simulation {
   /// start a composite solve from the last composite solution (else zero).
   PetscErrorCode solve_system(Vec b, Vec u, solve::SolveRecord* rec, bool guess = true,
                               Vec composite_add = nullptr);
-  PetscErrorCode composite_state_matches(const State& s, bool* matches);
+  PetscErrorCode composite_state(const State& s, bool* known);
   PetscErrorCode assemble(const assembly::OperatorWeights& w);
   PetscErrorCode refresh_rotations(Vec u);
   /// One Newmark solve with the rotations of s.u (linear runs: identity).
@@ -117,11 +118,13 @@ class Simulation {
   bool hexcut_pc_ = false;
   KSP ksp_ = nullptr;
   Vec composite_u_ = nullptr;  // the last composite solution (initial guess)
-  // Corotational composite runs: u~ of the state at step composite_state_step_ (u = I u~),
-  // and the composite elements' data for the mid-point force on the composite level.
-  Vec composite_state_ = nullptr;
+  // Corotational composite runs: u~, v~ of the state at step composite_state_step_ (u = I u~,
+  // v = I v~), the composite elements' data for the mid-point force on the composite level,
+  // and the preimage solver that recovers u~, v~ after a set-up, cut or restart.
+  Vec composite_state_ = nullptr, composite_velocity_ = nullptr;
   std::int64_t composite_state_step_ = -1;
   std::unique_ptr<CompositeElements> composite_elements_;
+  std::unique_ptr<CompositePreimage> composite_preimage_;
   Vec composite_coordinates_ = nullptr;  // composite copies' reference positions (AMG)
   bool supports_checked_ = false, deviation_warned_ = false;
   bool assembled_ = false;
