@@ -43,6 +43,18 @@ std::string holed_block(const std::string& analysis, bool supports = true, bool 
   return s + "analysis: " + analysis + "\n";
 }
 
+/// Applies every cut of the job's deck to the undeformed body and rebuilds the simulation
+/// on the cut topology; returns the number of links cut.
+std::int64_t cut_everything(Job& job) {
+  analysis::Cutter cutter(job.deck, job.model.lattice);
+  analysis::CutReport r;
+  HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
+                                       &job.state, &r));
+  job.sim.reset();
+  HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+  return std::int64_t(r.links);
+}
+
 /// The composite interpolation as an AIJ matrix (analysis::composite_interpolation_matrix).
 Mat composite_interpolation(const multigrid::Multigrid& mg) {
   Mat I;
@@ -136,13 +148,7 @@ TEST(Composite, StiffnessAndMassAreTheGalerkinProductsOfTheFineMatrices) {
         holed_block("{type: dynamic, dt: 0.01, steps: 1}") + "solver: {type: direct}\n" +
         "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    analysis::Cutter cutter(job.deck, job.model.lattice);
-    analysis::CutReport r;
-    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                         &job.state, &r));
-    ASSERT_GT(r.links, 0);
-    job.sim.reset();
-    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    ASSERT_GT(cut_everything(job), 0);
     for (const assembly::OperatorWeights& w :
          {assembly::OperatorWeights{1.0, 0.0, true}, assembly::OperatorWeights{0.0, 1.0, false},
           assembly::OperatorWeights{0.0, 1.0, true}, assembly::OperatorWeights{1.2, 400.0, true}}) {
@@ -198,12 +204,7 @@ TEST(Composite, AffineFieldsAreInterpolatedExactlyThroughCuts) {
                              "discretization: {type: composite, level: " + std::to_string(level) +
                              "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    analysis::Cutter cutter(job.deck, job.model.lattice);
-    analysis::CutReport r;
-    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                         &job.state, &r));
-    job.sim.reset();
-    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    ASSERT_GT(cut_everything(job), 0);
     auto* mg = job.sim->multigrid();
     const Eigen::Matrix3d G =
         (Eigen::Matrix3d() << 0.1, -0.3, 0.2, 0.05, 0.4, -0.1, 0.3, 0.0, -0.2).finished();
@@ -423,13 +424,7 @@ TEST(Composite, MidpointForceOnTheCompositeLevelIsTheRestrictedFineForce) {
                              "discretization: {type: composite, level: " + std::to_string(level) +
                              "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    analysis::Cutter cutter(job.deck, job.model.lattice);
-    analysis::CutReport r;
-    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                         &job.state, &r));
-    ASSERT_GT(r.links, 0);
-    job.sim.reset();
-    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    ASSERT_GT(cut_everything(job), 0);
     auto& mg = *job.sim->multigrid();
     DM dc = mg.dm(level);
     Vec x, u0c, u1c, fc, fref, u0, u1, f;
@@ -499,12 +494,7 @@ TEST(Composite, PreimageRecoversTheCompositeValues) {
         holed_block("{type: dynamic, dt: 0.01, steps: 1}") + "solver: {type: direct}\n" +
         "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    analysis::Cutter cutter(job.deck, job.model.lattice);
-    analysis::CutReport r;
-    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                         &job.state, &r));
-    job.sim.reset();
-    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    ASSERT_GT(cut_everything(job), 0);
     auto& mg = *job.sim->multigrid();
     Vec xc, back, x;
     HEXCUT_CALL(DMCreateGlobalVector(mg.dm(level), &xc));
