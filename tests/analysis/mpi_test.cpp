@@ -1,8 +1,11 @@
 // Results must not depend on the number of ranks: the same problem solved on all ranks
 // of MPI_COMM_WORLD (2 under ctest) and on rank 0 alone gives the same displacement in
 // canonical order, for every solver, and for a corotational dynamic run.
+#include <array>
 #include <cmath>
+#include <map>
 
+#include "common/mpi_gather.hpp"
 #include "fixture.hpp"
 
 namespace hexcut::testing {
@@ -82,6 +85,46 @@ TEST(Mpi, CorotationalDynamicTwoRanksEqualOneRank) {
   compare(gmg, 1e-10);
   // Composite elements of level 1, one rotation each, with the multigrid below them.
   compare(gmg + "discretization: {type: composite, level: 1}\n", 1e-10);
+}
+
+/// Composite element id of every cell, by canonical cell id (on every rank).
+std::map<std::int64_t, double> composite_ids_on(MPI_Comm comm, const std::string& yaml) {
+  Job job(comm, yaml, 4);
+  const auto ids = job.sim->composite_element_ids();
+  std::vector<std::array<double, 2>> mine(ids.size());
+  for (std::size_t e = 0; e < ids.size(); ++e)
+    mine[e] = {double(job.model.layout.cells[e]), ids[e]};
+  std::map<std::int64_t, double> all;
+  for (const auto& p : allgather(comm, mine)) all[std::int64_t(p[0])] = p[1];
+  return all;
+}
+
+TEST(Mpi, CompositeElementIdsDoNotDependOnTheRanks) {
+  // The output field composite_element: the same id for every cell on 1 and 2 ranks, on a
+  // body whose blocks a hole splits into pieces.
+  const std::string yaml =
+      "lattice: {h: 0.1, dims: [16, 8, 8]}\n"
+      "materials: {m: {E: 1000.0, nu: 0.3, rho: 1.0}}\n"
+      "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.6, 0.8, 0.8]}}\n"
+      "  - subtract: {box: {min: [0.1, -1, -1], max: [0.3, 2, 0.4]}}\n"
+      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}}]\n"
+      "analysis: {type: static}\nsolver: {type: direct}\n"
+      "discretization: {type: composite, level: 2}\n";
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  const auto parallel = composite_ids_on(PETSC_COMM_WORLD, yaml);
+  MPI_Comm self;
+  MPI_Comm_split(PETSC_COMM_WORLD, rank == 0 ? 0 : MPI_UNDEFINED, 0, &self);
+  if (rank == 0) {
+    const auto serial = composite_ids_on(self, yaml);
+    std::map<double, int> cells_per_id;
+    for (const auto& [cell, id] : serial) ++cells_per_id[id];
+    std::printf("  %zu cells, %zu composite elements\n", serial.size(), cells_per_id.size());
+    EXPECT_EQ(serial, parallel);
+    EXPECT_GT(cells_per_id.size(), std::size_t(4 * 2 * 2));  // the gap splits blocks
+    MPI_Comm_free(&self);
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
 }
 
 class EveryCompositeSolver : public ::testing::TestWithParam<const char*> {};
