@@ -37,8 +37,9 @@ PetscErrorCode composite_interpolation_matrix(const multigrid::Multigrid& mg, Ma
 /// x~ with I x~ = x for fine vectors x in range(I) (a state after a cut or a restart, whose
 /// composite values are not known): the least-squares solution of (I^T I) x~ = I^T x, by a
 /// Cholesky factorization of I^T I (SPD: every corner of an element carries weight from
-/// one of its fine cells' corners) made on first use. `misfit` gets ||I x~ - x||_inf /
-/// ||x||_inf (0 for x = 0): round-off when x is in range(I).
+/// one of its fine cells' corners) made on first use. `misfit` gets ||I x~ - x||_inf (in
+/// the units of x): round-off when x is in range(I). Its factorization reads options with
+/// the prefix -hexcut_preimage_ (not the solver's -mat_mumps_...).
 class CompositePreimage {
  public:
   explicit CompositePreimage(multigrid::Multigrid& mg) : mg_(mg) {}

@@ -77,7 +77,7 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
     }
   }
   // Per offset of a fine cell in its element: W^T K_lambda W, W^T K_mu W, W^T W and
-  // W^T g, computed on first use (s^3 offsets).
+  // W^T g, computed for the offsets that occur (tables for all s^3 <= 512 offsets: 5 MiB).
   const auto& ref = element::reference_matrices();
   const std::size_t offsets = std::size_t(s) * s * s;
   std::vector<double> k_lambda(576 * offsets), k_mu(576 * offsets), gram(64 * offsets),

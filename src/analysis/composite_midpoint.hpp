@@ -1,7 +1,7 @@
 // The mid-point corotational force of composite elements computed on the composite level
 // (doc/theory.md, "Composite elements", "Mid-point corotational step"): once per topology,
 // each element gathers from its filled fine cells what the fine force would use, so a
-// mid-point iteration costs one 24x24 product per composite element instead of two per
+// mid-point iteration costs two 24x24 products per composite element instead of two per
 // fine cell. The result is I^T of the fine grouped force (assembly::assemble_midpoint_force
 // with the composite elements as rotation groups) whenever both displacements are
 // interpolated from the composite level, u = I u~ (tests/analysis/composite_test.cpp).

@@ -83,9 +83,11 @@ PetscErrorCode Driver::write(const State& s, bool step, bool checkpoint) {
   if (!out_) PetscFunctionReturn(0);
   if (step) {
     EventScope scope(events().output);
+    // Collective: a rank without cells passes its empty table too.
+    const bool ids = deck_.output.has_field("composite_element");
     std::vector<double> composite;
-    if (deck_.output.has_field("composite_element")) composite = sim_->composite_element_ids();
-    PetscCall(out_->write_step(s, sim_->corotational(), composite.empty() ? nullptr : &composite));
+    if (ids) composite = sim_->composite_element_ids();
+    PetscCall(out_->write_step(s, sim_->corotational(), ids ? &composite : nullptr));
   }
   if (checkpoint) PetscCall(out_->write_checkpoint(s));
   PetscFunctionReturn(0);

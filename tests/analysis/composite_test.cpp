@@ -289,7 +289,9 @@ double distance_from_composite_space(multigrid::Multigrid& mg, Vec x) {
   double misfit = 0.0;
   HEXCUT_CALL(preimage.solve(x, xc, &misfit));
   VecDestroy(&xc);
-  return misfit;
+  PetscReal n = 0;
+  VecNorm(x, NORM_INFINITY, &n);
+  return n > 0 ? misfit / n : misfit;
 }
 
 TEST(Composite, StateStaysInTheCompositeSpaceThroughALateCut) {

@@ -242,8 +242,8 @@ TEST(EnergyBalance, MidpointCorotationalStepNearlyBalances) {
 }
 
 TEST(EnergyBalance, CompositeMidpointForceOnEitherLevelGivesTheSameSteps) {
-  // The composite mid-point force is computed on the composite level from the second
-  // iteration of each step on (analysis/composite_midpoint.hpp), or from the fine cells
+  // The composite mid-point force is computed on the composite level in every iteration
+  // (analysis/composite_midpoint.hpp), or from the fine cells
   // (-hexcut_composite_midpoint false): the same steps to the iteration's tolerance, with
   // the same support work (du . fbar from the composite force) and energy balance.
   struct Run {
