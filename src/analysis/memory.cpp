@@ -68,10 +68,20 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
     image_youngs |= g.kind == deck::GeometryStep::Kind::image_youngs;
   double bytes =
       kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) * double(lattice_cells);
-  if (material_cells > 0)
+  if (material_cells > 0) {
+    double shared = solver_bytes_per_cell(deck.solver, material_cells);
+    // Corotational dynamic runs on composite elements of level l add each element's own
+    // data (a 24x24 stiffness, its Gram matrix and gradients: 5.6 kB per element, one per
+    // 8^l cells) and the preimage's AIJ interpolation (~300 B per cell): measured 1.1 kB
+    // per cell at level 1 and 0.4 kB at level 2 on the bunny (doc/benchmarks.md).
+    if (deck.discretization.type == deck::Discretization::Type::composite &&
+        deck.discretization.level > 0 &&
+        deck.analysis.formulation == deck::Analysis::Formulation::corotational &&
+        deck.analysis.type == deck::Analysis::Type::dynamic)
+      shared += 300.0 + 5600.0 / std::pow(8.0, deck.discretization.level);
     bytes += kReplicatedPerCell * double(material_cells) +
-             solver_bytes_per_cell(deck.solver, material_cells) * double(material_cells) /
-                 double(std::max(ranks, 1));
+             shared * double(material_cells) / double(std::max(ranks, 1));
+  }
   return bytes;
 }
 

@@ -17,7 +17,8 @@ namespace hexcut::analysis {
 /// description (14 B per lattice cell, +8 B when an image sets Young's moduli, ~300 B
 /// per filled cell); the operator, vectors and solver are shared out (per filled cell:
 /// gmg 1.8 kB, cg-jacobi 3.7 kB, hypre and gamg 9.5 kB, direct 28 kB x (cells/4096)^(1/4)
-/// for the fill of the Cholesky factor); 45 MB for the libraries. The figures were
+/// for the fill of the Cholesky factor; corotational dynamic composite runs of level l
+/// + 300 B + 5.6 kB / 8^l); 45 MB for the libraries. The figures were
 /// measured (peak resident memory of hexcut runs on solid boxes, doc/user-guide.md);
 /// they are good to about 30% for solid bodies.
 double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cells,
