@@ -117,6 +117,10 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   PetscBool rotate = PETSC_TRUE;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_rotate", &rotate, nullptr));
   options.rotate_composite = rotate;
+  PetscBool midpoint = PETSC_TRUE;
+  PetscCall(
+      PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_midpoint", &midpoint, nullptr));
+  composite_midpoint_ = midpoint;
   mg_ = std::make_unique<multigrid::Multigrid>(comm_, model_.lattice, model_.copies,
                                                model_.partition, model_.layout, model_.dm, options);
   if (hexcut_pc) PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));
@@ -482,16 +486,13 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
       PetscCall(VecAXPY(composite_u_, 1.0, g));
       PetscCall(prolong_composite(*mg_, composite_u_, u_new));
     }
-    PetscBool on = PETSC_TRUE;
-    PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_midpoint", &on, nullptr));
-    composite_force = known && on;
+    composite_force = known && composite_midpoint_;
     if (composite_force && !composite_elements_)
       composite_elements_ =
           std::make_unique<CompositeElements>(build_composite_elements(*mg_, model_.cells));
   }
-  ScratchVec fc;
+  ScratchVec fc;  // composite_force: -2 I^T fbar, in place of fbar
   if (composite_force) PetscCall(fc.get(mg_->dm(mg_->first_level())));
-  bool force_on_composite = false;  // the last force is fc, not fbar
   if (!composite_force) {
     EventScope scope(events().energy);
     PetscCall(
@@ -500,8 +501,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
   for (;;) {
     {
       EventScope scope(events().energy);
-      force_on_composite = composite_force;
-      if (force_on_composite) {
+      if (composite_force) {
         PetscCall(composite_midpoint_force(*mg_, *composite_elements_, composite_state_,
                                            composite_u_, fc, model_.cells, energy));
         PetscCall(VecScale(fc, -2.0));
@@ -531,7 +531,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // prescribed rows.
     PetscCall(VecWAXPY(du, -1.0, s.u, u_new));
     PetscCall(assembly::apply(model_.dm, model_.layout, model_.cells, inertia, du, r));
-    if (force_on_composite)
+    if (composite_force)
       PetscCall(VecAYPX(r, -1.0, fixed));  // -2 I^T fbar is added on the composite level
     else
       PetscCall(VecAXPBYPCZ(r, 1.0, -2.0, -1.0, fixed, fbar));
@@ -561,7 +561,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // Composite runs: the composite residual I_f^T r (the fine one does not vanish).
     PetscReal rn = 0, bn = 0;
     if (composite()) {
-      Vec add = force_on_composite ? Vec(fc) : nullptr;
+      Vec add = composite_force ? Vec(fc) : nullptr;
       PetscCall(composite_norm(*mg_, r, &rn, add));
       PetscCall(composite_norm(*mg_, b, &bn, add));
     } else {
@@ -580,7 +580,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     }
     PetscCall(VecCopy(u_new, u_prev));
     solve::SolveRecord rec;
-    PetscCall(solve_system(b, u_new, &rec, true, force_on_composite ? Vec(fc) : nullptr));
+    PetscCall(solve_system(b, u_new, &rec, true, composite_force ? Vec(fc) : nullptr));
     ++solves_;
     total->iterations += rec.iterations;
     total->setup_seconds += rec.setup_seconds;
@@ -604,7 +604,7 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
     // next step starts from.
     // v~_n+1 = (2/dt)(u~_n+1 - u~_n) - v~_n
     PetscCall(VecAYPX(composite_state_, -1.0, composite_u_));  // du~
-    if (force_on_composite) {  // du . fbar = du~ . I^T fbar = -1/2 du~ . fc
+    if (composite_force) {  // du . fbar = du~ . I^T fbar = -1/2 du~ . fc
       PetscScalar w;
       PetscCall(VecDot(composite_state_, fc, &w));
       *fbar_work = -0.5 * w;

@@ -122,6 +122,7 @@ class Simulation {
   // v = I v~), the composite elements' data for the mid-point force on the composite level,
   // and the preimage solver that recovers u~, v~ after a set-up, cut or restart.
   Vec composite_state_ = nullptr, composite_velocity_ = nullptr;
+  bool composite_midpoint_ = true;  // -hexcut_composite_midpoint: the force on that level
   std::int64_t composite_state_step_ = -1;
   std::unique_ptr<CompositeElements> composite_elements_;
   std::unique_ptr<CompositePreimage> composite_preimage_;
