@@ -57,7 +57,8 @@ void mean_gradient(const CompositeElements& E, std::size_t e, const double* u24,
 }  // namespace
 
 CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
-                                           const assembly::CellData& cells) {
+                                           const assembly::CellData& cells,
+                                           const CompositeElements* previous) {
   const int l = mg.first_level(), s = 1 << l;
   const auto& fine = mg.level(0);
   const auto& lev = mg.level(l);
@@ -76,6 +77,23 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
       for (int d = 0; d < 3; ++d) E.corners[24 * e + 3 * a + d] = x[d];
     }
   }
+  E.keys = mg.composite_keys();
+  // Elements a cut left whole: their sums are those of the previous topology.
+  std::vector<char> copied(n, 0);
+  if (previous) {
+    const auto from = multigrid::match_composite_elements(previous->keys, E.keys);
+    for (std::size_t e = 0; e < n; ++e) {
+      if (from[e] < 0) continue;
+      const auto k = std::size_t(from[e]);
+      const auto& P = *previous;
+      std::copy_n(&P.stiffness[576 * k], 576, &E.stiffness[576 * e]);
+      std::copy_n(&P.gram[64 * k], 64, &E.gram[64 * e]);
+      std::copy_n(&P.gradient[24 * k], 24, &E.gradient[24 * e]);
+      E.mu_sum[e] = P.mu_sum[k];
+      copied[e] = 1;
+      ++E.carried;
+    }
+  }
   // Per offset of a fine cell in its element: W^T K_lambda W, W^T K_mu W, W^T W and
   // W^T g, computed for the offsets that occur (tables for all s^3 <= 512 offsets: 5 MiB).
   const auto& ref = element::reference_matrices();
@@ -87,6 +105,7 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
   const auto& ce = mg.composite_elements();
   for (std::size_t c = 0; c < ce.size(); ++c) {
     const auto e = std::size_t(ce[c]);
+    if (copied[e]) continue;
     const auto& fp = fine.graph.ijk[fine.layout.cells[c]];
     const auto& cp = lev.graph.ijk[lev.layout.cells[e]];
     const std::array<int, 3> o{fp[0] - s * cp[0], fp[1] - s * cp[1], fp[2] - s * cp[2]};

@@ -27,8 +27,11 @@ std::int64_t Driver::total_steps() const {
 
 PetscErrorCode Driver::follow_topology() {
   PetscFunctionBeginUser;
+  // Composite runs reuse the elements the cut left whole (none on a restart's first set-up).
+  CompositeCarry carry;
+  if (sim_) carry = sim_->composite_carry();
   sim_.reset();
-  PetscCall(Simulation::create(comm_, model_, deck_, &sim_));
+  PetscCall(Simulation::create(comm_, model_, deck_, &sim_, &carry));
   if (out_) PetscCall(out_->topology_changed());
   PetscFunctionReturn(0);
 }

@@ -52,15 +52,15 @@ Simulation::Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck)
     : comm_(comm), model_(model), deck_(deck) {}
 
 PetscErrorCode Simulation::create(MPI_Comm comm, Model& model, const deck::Deck& deck,
-                                  std::unique_ptr<Simulation>* sim) {
+                                  std::unique_ptr<Simulation>* sim, CompositeCarry* carry) {
   PetscFunctionBeginUser;
   std::unique_ptr<Simulation> s(new Simulation(comm, model, deck));
-  PetscCall(s->setup());
+  PetscCall(s->setup(carry));
   *sim = std::move(s);
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Simulation::setup() {
+PetscErrorCode Simulation::setup(CompositeCarry* carry) {
   PetscFunctionBeginUser;
   // Option errors (an unknown type, a value that is not a number) are input errors.
   PC pc;
@@ -73,7 +73,7 @@ PetscErrorCode Simulation::setup() {
     PetscFunctionReturn(0);
   }));
   hexcut_pc_ = hexcut_pc;
-  if (composite()) PetscFunctionReturn(setup_composite(pc, hexcut_pc));
+  if (composite()) PetscFunctionReturn(setup_composite(pc, hexcut_pc, carry));
   if (hexcut_pc) {
     multigrid::Options options;
     PetscCall(multigrid::pc_get_options(pc, &options));
@@ -94,7 +94,7 @@ PetscErrorCode Simulation::setup() {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
+PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc, CompositeCarry* carry) {
   PetscFunctionBeginUser;
   // The hierarchy up to the composite level always exists: its Galerkin blocks are the
   // composite elements. With gmg it continues below as the preconditioner (-gmg_levels
@@ -124,6 +124,14 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc) {
   mg_ = std::make_unique<multigrid::Multigrid>(comm_, model_.lattice, model_.copies,
                                                model_.partition, model_.layout, model_.dm, options);
   if (hexcut_pc) PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));
+  // After a cut, the elements it left whole keep their blocks and data (Wu rebuilds "only
+  // the few affected elements"); -hexcut_composite_carry false rebuilds all, for comparison.
+  PetscBool reuse = PETSC_TRUE;
+  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_carry", &reuse, nullptr));
+  if (carry && reuse) {
+    mg_->carry_composite_blocks(std::move(carry->blocks));
+    carried_elements_ = std::move(carry->elements);
+  }
   // One rotation per composite element (corotational runs): the fine cells of an element
   // form a rotation group (assembly::cell_rotations), so the Galerkin blocks of the rotated
   // fine cells are the element's block rotated, R^ K~ R^T.
@@ -144,6 +152,14 @@ std::vector<double> Simulation::composite_element_ids() const {
   for (std::size_t e = 0; e < ids.size(); ++e)
     ids[e] = l == 0 ? double(model_.layout.cells[e]) : double(cells[std::size_t(element[e])]);
   return ids;
+}
+
+CompositeCarry Simulation::composite_carry() {
+  CompositeCarry c;
+  if (!composite() || !mg_) return c;
+  c.blocks = mg_->composite_blocks();
+  c.elements = std::move(composite_elements_);
+  return c;
 }
 
 bool Simulation::uses_multigrid() const {
@@ -487,9 +503,11 @@ PetscErrorCode Simulation::midpoint_step(const State& s, Vec load_sum, Vec u_new
       PetscCall(prolong_composite(*mg_, composite_u_, u_new));
     }
     composite_force = known && composite_midpoint_;
-    if (composite_force && !composite_elements_)
-      composite_elements_ =
-          std::make_unique<CompositeElements>(build_composite_elements(*mg_, model_.cells));
+    if (composite_force && !composite_elements_) {
+      composite_elements_ = std::make_unique<CompositeElements>(
+          build_composite_elements(*mg_, model_.cells, carried_elements_.get()));
+      carried_elements_.reset();
+    }
   }
   ScratchVec fc;  // composite_force: -2 I^T fbar, in place of fbar
   if (composite_force) PetscCall(fc.get(mg_->dm(mg_->first_level())));

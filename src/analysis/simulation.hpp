@@ -23,6 +23,14 @@ namespace hexcut::analysis {
 /// Called after every linear solve (solver history, progress).
 using OnSolve = std::function<void(const State&, const solve::SolveRecord&)>;
 
+/// What a composite Simulation hands to the next one after a cut (Driver::follow_topology):
+/// the composite blocks and the elements' mid-point data, reused for the elements the cut
+/// left whole (their fine cells are the same; doc/theory.md, "Composite elements").
+struct CompositeCarry {
+  multigrid::CompositeBlocks blocks;
+  std::unique_ptr<CompositeElements> elements;  // null when the run never built them
+};
+
 /// The physics of one step on one topology: owns the system matrix (or the multigrid) and the
 /// KSP. The steps are taken by analysis::Driver (analysis/driver.hpp), which replaces the
 /// Simulation when the topology changes. PETSc-style: every member that does PETSc work
@@ -33,8 +41,10 @@ class Simulation {
   /// Creates the Simulation of `model` (both must outlive it): the solver, whose PETSc
   /// options are parsed here (an error in them is PETSC_ERR_USER_INPUT), and the multigrid
   /// hierarchy or the matrix.
+  /// `carry` (may be null; composite runs after a cut): the previous topology's
+  /// composite_carry(), used unless -hexcut_composite_carry false.
   static PetscErrorCode create(MPI_Comm comm, Model& model, const deck::Deck& deck,
-                               std::unique_ptr<Simulation>* sim);
+                               std::unique_ptr<Simulation>* sim, CompositeCarry* carry = nullptr);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
@@ -77,6 +87,9 @@ class Simulation {
   /// cell id of the composite level, the same on every rank count), as output values;
   /// empty for hexahedra.
   std::vector<double> composite_element_ids() const;
+  /// Composite runs: moves out what the Simulation of the next topology can reuse (this
+  /// one is to be destroyed). Hexahedra: nothing.
+  CompositeCarry composite_carry();
   KSP ksp() const { return ksp_; }
   /// The multigrid (solver gmg or gmg-cycles; composite runs: always, it holds the composite
   /// level and the interpolation to it), else null.
@@ -84,8 +97,8 @@ class Simulation {
 
  private:
   Simulation(MPI_Comm comm, Model& model, const deck::Deck& deck);
-  PetscErrorCode setup();
-  PetscErrorCode setup_composite(PC pc, bool hexcut_pc);
+  PetscErrorCode setup(CompositeCarry* carry);
+  PetscErrorCode setup_composite(PC pc, bool hexcut_pc, CompositeCarry* carry);
   /// Solves the step's constrained fine system A u = b (prescribed rows of b: their values;
   /// u: the initial guess) with the KSP; composite runs solve its Galerkin projection on the
   /// composite level and return u = I u~ (doc/theory.md, "Composite elements"). `guess`:
@@ -125,6 +138,7 @@ class Simulation {
   bool composite_midpoint_ = true;  // -hexcut_composite_midpoint: the force on that level
   std::int64_t composite_state_step_ = -1;
   std::unique_ptr<CompositeElements> composite_elements_;
+  std::unique_ptr<CompositeElements> carried_elements_;  // the last topology's, until built
   std::unique_ptr<CompositePreimage> composite_preimage_;
   Vec composite_coordinates_ = nullptr;  // composite copies' reference positions (AMG)
   bool supports_checked_ = false, deviation_warned_ = false;

@@ -33,6 +33,8 @@ const char* kUsage =
     "                by Galerkin products at rotation updates instead of rotating them)\n"
     "                -hexcut_composite_midpoint false (composite elements: mid-point\n"
     "                force from the fine cells instead of the composite level)\n"
+    "                -hexcut_composite_carry false (composite elements: rebuild every\n"
+    "                element after a cut, not only those the cut changed)\n"
     "Exit codes: 0 ok, 1 other error, 2 invalid input, 3 solver failure.\n"
     "See doc/user-guide.md for the deck reference.\n";
 

@@ -15,9 +15,10 @@
 namespace hexcut::app {
 namespace {
 
-const std::vector<std::string> kKnown = {"-hexcut_composite_midpoint", "-hexcut_composite_rotate",
-                                         "-hexcut_max_steps",          "-hexcut_memory_available",
-                                         "-hexcut_residual_history",   "-hexcut_superblock"};
+const std::vector<std::string> kKnown = {"-hexcut_composite_carry",  "-hexcut_composite_midpoint",
+                                         "-hexcut_composite_rotate", "-hexcut_max_steps",
+                                         "-hexcut_memory_available", "-hexcut_residual_history",
+                                         "-hexcut_superblock"};
 
 std::string lower(std::string s) {
   for (auto& ch : s) ch = char(std::tolower(static_cast<unsigned char>(ch)));

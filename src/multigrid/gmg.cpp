@@ -40,6 +40,14 @@ namespace {
 
 const double kIdentity3[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 
+/// dR = R R0^T (row-major 3x3): the rotation that turns a block built at R0 into one at R.
+void rotation_change(const double* R, const double* R0, double* dR) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      dR[3 * i + j] =
+          R[3 * i] * R0[3 * j] + R[3 * i + 1] * R0[3 * j + 1] + R[3 * i + 2] * R0[3 * j + 2];
+}
+
 PetscErrorCode shell_mult(Mat A, Vec x, Vec y) {
   PetscFunctionBeginUser;
   Multigrid* mg;
@@ -194,6 +202,12 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
       composite_element_[e] = local[c];
       if (composite_fine_cell_[local[c]] < 0) composite_fine_cell_[local[c]] = std::int32_t(e);
     }
+    // Local fine cells are in ascending canonical order: an element's first is its smallest.
+    composite_keys_.resize(top.layout.cells.size());
+    for (std::size_t C = 0; C < composite_keys_.size(); ++C)
+      composite_keys_[C].first_cell = fine.cells[std::size_t(composite_fine_cell_[C])];
+    for (auto C : composite_element_) ++composite_keys_[std::size_t(C)].num_cells;
+    chain_missing_.assign(fine.cells.size(), 0);
   }
   const auto& D0 = levels_[first].layout;
   PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
@@ -239,18 +253,105 @@ PetscErrorCode Multigrid::create_vector(int l, Vec* v) const {
 
 void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full) {
   // A fine cell is dirty when its rotation moved by more than the tolerance since the
-  // block of its parent was built (or on a full rebuild).
+  // block of its parent was built (or on a full rebuild), or when the blocks above it
+  // were never built (its composite element's block was carried over a cut).
   auto& d = *data_[0];
   const std::size_t n = levels_[0].layout.cells.size();
   d.dirty.assign(n, full ? 1 : 0);
   if (full) return;
   const double tol = opt_.rebuild_tolerance;
   for (std::size_t e = 0; e < n; ++e) {
+    d.dirty[e] = !chain_missing_.empty() && chain_missing_[e];
     const double* now = &cells.rotation[9 * e];
     const double* then = &built_rotation_[9 * e];
     for (int k = 0; k < 9 && !d.dirty[e]; ++k)
       if (std::abs(now[k] - then[k]) > tol) d.dirty[e] = 1;
   }
+}
+
+std::vector<std::int32_t> match_composite_elements(const std::vector<CompositeKey>& from,
+                                                   const std::vector<CompositeKey>& to) {
+  // Both in ascending first_cell (the order of the elements' first fine cells): one merge.
+  std::vector<std::int32_t> k(from.size());
+  for (std::size_t i = 0; i < k.size(); ++i) k[i] = std::int32_t(i);
+  std::sort(k.begin(), k.end(), [&](std::int32_t a, std::int32_t b) {
+    return from[a].first_cell < from[b].first_cell;
+  });
+  std::vector<std::int32_t> match(to.size(), -1);
+  for (std::size_t i = 0; i < to.size(); ++i) {
+    const auto it =
+        std::lower_bound(k.begin(), k.end(), to[i].first_cell,
+                         [&](std::int32_t a, std::int32_t v) { return from[a].first_cell < v; });
+    if (it != k.end() && from[*it] == to[i]) match[i] = *it;
+  }
+  return match;
+}
+
+const double* Multigrid::element_rotation(const assembly::CellData& cells, std::size_t C) const {
+  return cells.rotation.size() == 9 * levels_[0].layout.cells.size()
+             ? &cells.rotation[9 * std::size_t(composite_fine_cell_[C])]
+             : kIdentity3;
+}
+
+CompositeBlocks Multigrid::composite_blocks() const {
+  CompositeBlocks b;
+  const int first = opt_.first_level;
+  if (first == 0 || !built_) return b;
+  const auto& stored = *data_[first]->stored;
+  const auto& corners = levels_[first].layout.cell_corners;
+  const std::size_t n = composite_keys_.size();
+  b.keys = composite_keys_;
+  b.packed.resize(kPackedSize * n);
+  b.rotation.resize(9 * n);
+  b.mask.resize(24 * n);
+  for (std::size_t C = 0; C < n; ++C) {
+    std::copy_n(stored.block(C), kPackedSize, &b.packed[kPackedSize * C]);
+    std::copy_n(composite_rotation_.empty() ? kIdentity3 : &composite_rotation_[9 * C], 9,
+                &b.rotation[9 * C]);
+    for (int i = 0; i < 24; ++i)
+      b.mask[24 * C + i] = composite_mask_[3 * std::size_t(corners[C][i / 3]) + i % 3];
+  }
+  b.fine_fixed = composite_fine_fixed_;
+  b.weights = weights_;
+  return b;
+}
+
+PetscErrorCode Multigrid::take_carried_blocks(const assembly::CellData& cells,
+                                              std::vector<char>* carried) {
+  PetscFunctionBeginUser;
+  const int first = opt_.first_level;
+  auto& stored = *data_[first]->stored;
+  const auto& corners = levels_[first].layout.cell_corners;
+  const std::size_t n = composite_keys_.size();
+  carried->assign(n, 0);
+  const auto& c = carried_;
+  const bool same_weights = c.weights.stiffness == weights_.stiffness &&
+                            c.weights.mass == weights_.mass &&
+                            c.weights.lumped_mass == weights_.lumped_mass;
+  const auto from = match_composite_elements(c.keys, composite_keys_);
+  for (std::size_t C = 0; C < n && same_weights; ++C) {
+    const auto k = std::size_t(from[C]);
+    if (from[C] < 0 || c.fine_fixed[k] != composite_fine_fixed_[C]) continue;
+    bool same_mask = true;
+    for (int i = 0; i < 24; ++i)
+      same_mask &=
+          c.mask[24 * k + i] == composite_mask_[3 * std::size_t(corners[C][i / 3]) + i % 3];
+    if (!same_mask) continue;
+    // The block was built (or rotated) at R0; the element now turns with R: dR = R R0^T.
+    const double* R = element_rotation(cells, C);
+    const double* R0 = &c.rotation[9 * k];
+    const bool turned = !std::equal(R, R + 9, R0);
+    if (turned && !rotatable_) continue;
+    stored.set_block(C, &c.packed[kPackedSize * k]);
+    if (turned) {
+      double dR[9];
+      rotation_change(R, R0, dR);
+      stored.rotate_block(C, dR);
+    }
+    (*carried)[C] = 1;
+  }
+  carried_ = CompositeBlocks{};
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode Multigrid::update(const assembly::CellData& cells,
@@ -283,10 +384,22 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     built_rows_ = constrained_rows;
     std::vector<double> mask;
     PetscCall(assembly::dirichlet_mask(d0.dm, constrained_rows, d0.mask, &mask));
+    if (opt_.first_level > 0) {
+      composite_fine_fixed_.assign(composite_keys_.size(), 0);
+      for (std::size_t e = 0; e < D0.cells.size(); ++e)
+        for (auto q : D0.cell_corners[e])
+          for (int c = 0; c < 3; ++c)
+            composite_fine_fixed_[std::size_t(composite_element_[e])] +=
+                mask[3 * std::size_t(q) + c] == 0.0;
+    }
     fine_op_->set_mask(std::move(mask));
     if (opt_.first_level > 0) PetscCall(build_composite_mask());
   }
   const int first = opt_.first_level;
+  // After a cut: the blocks of the elements it left whole are carried over.
+  std::vector<char> carried;
+  if (full && first > 0 && !carried_.keys.empty()) PetscCall(take_carried_blocks(cells, &carried));
+  if (full) carried_cells_ = std::count(carried.begin(), carried.end(), char(1));
   bool rotated = false;
   if (!full && first > 0) PetscCall(rotate_composite_blocks(cells, &rotated));
   // Rotated composite blocks need no fine cell: none is compared or marked.
@@ -294,6 +407,9 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     d0.dirty.assign(levels_[0].layout.cells.size(), 0);
   else
     mark_dirty_fine_cells(cells, full);
+  if (!carried.empty())
+    for (std::size_t e = 0; e < d0.dirty.size(); ++e)
+      if (carried[std::size_t(composite_element_[e])]) d0.dirty[e] = 0, chain_missing_[e] = 1;
   if (first == 0) PetscCall(build_diagonal(0));
   for (char c : d0.dirty) rebuilt_[0] += c;
   if (uses_schwarz(0)) PetscCall(build_schwarz(0));
@@ -315,13 +431,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     }
     if (l == first && first > 0 && !rotated) {
       // The rotation each composite block now has (its fine cells share it).
-      const auto& D0 = levels_[0].layout;
       composite_rotation_.resize(9 * composite_fine_cell_.size());
       for (std::size_t C = 0; C < composite_fine_cell_.size(); ++C)
-        std::copy_n(cells.rotation.size() == 9 * D0.cells.size()
-                        ? &cells.rotation[9 * std::size_t(composite_fine_cell_[C])]
-                        : kIdentity3,
-                    9, &composite_rotation_[9 * C]);
+        std::copy_n(element_rotation(cells, C), 9, &composite_rotation_[9 * C]);
+      // Carried blocks are new to the levels below too.
+      if (!carried.empty()) d.stored->mark_all_dirty();
     }
     if (l == 1) {
       // The rotations the rebuilt blocks saw: those of all their children.
@@ -333,8 +447,9 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
             std::copy_n(&cells.rotation[9 * e], 9, &built_rotation_[9 * e]);
           }
     }
-    // The diagonal blocks sum over ranks: rebuilt wherever any rank changed this level.
-    int changed = rebuilt_[l] > 0;
+    // The diagonal blocks sum over ranks: rebuilt wherever any rank changed this level (a
+    // full update always: its blocks may all have been carried over a cut).
+    int changed = full || rebuilt_[l] > 0;
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_));
     // Below the first level only the Galerkin chain is needed.
     if (changed && l >= first) PetscCall(build_diagonal(l));
@@ -342,6 +457,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     if (l == L - 1 && changed) PetscCall(build_coarsest());
   }
   if (L == 1) PetscCall(build_coarsest());
+  // The blocks above the fine cells rebuilt now are complete again.
+  if (!chain_missing_.empty())
+    for (std::size_t e = 0; e < d0.dirty.size(); ++e)
+      if (d0.dirty[e]) chain_missing_[e] = 0;
   if (opt_.smoother == Smoother::chebyshev) {
     if (full || ++updates_since_estimate_ >= opt_.eig_every) {
       for (int l = first; l + 1 < L; ++l) PetscCall(estimate_lambda_max(l));
@@ -691,11 +810,7 @@ PetscErrorCode Multigrid::rotate_composite_blocks(const assembly::CellData& cell
   std::vector<double> dR(9 * n);
   for (std::size_t C = 0; C < n; ++C) {
     const double* R = &cells.rotation[9 * std::size_t(composite_fine_cell_[C])];
-    const double* R0 = &composite_rotation_[9 * C];
-    for (int i = 0; i < 3; ++i)  // dR = R R0^T
-      for (int j = 0; j < 3; ++j)
-        dR[9 * C + 3 * i + j] =
-            R[3 * i] * R0[3 * j] + R[3 * i + 1] * R0[3 * j + 1] + R[3 * i + 2] * R0[3 * j + 2];
+    rotation_change(R, &composite_rotation_[9 * C], &dR[9 * C]);
     std::copy_n(R, 9, &composite_rotation_[9 * C]);
   }
   data_[opt_.first_level]->stored->rotate(dR);

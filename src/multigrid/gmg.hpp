@@ -84,6 +84,32 @@ struct Options {
   bool rotate_composite = true;
 };
 
+/// A composite element named by its fine cells: the smallest canonical id among them and
+/// how many there are. Cuts only remove links, so each element after a cut holds a subset
+/// of the fine cells of one element before it: equal keys mean the same fine cells.
+struct CompositeKey {
+  std::int32_t first_cell = -1, num_cells = 0;
+  bool operator==(const CompositeKey& o) const {
+    return first_cell == o.first_cell && num_cells == o.num_cells;
+  }
+};
+
+/// For each key of `to`: the index of the same key in `from`, or -1.
+std::vector<std::int32_t> match_composite_elements(const std::vector<CompositeKey>& from,
+                                                   const std::vector<CompositeKey>& to);
+
+/// The composite level's blocks as the last update() left them, per local composite
+/// element (Multigrid::composite_blocks), to be carried over a cut to the elements it
+/// leaves whole (Multigrid::carry_composite_blocks; doc/theory.md, "Composite elements").
+struct CompositeBlocks {
+  std::vector<CompositeKey> keys;
+  std::vector<double> packed;            // kPackedSize each: the masked Galerkin block
+  std::vector<double> rotation;          // 9 each (row-major): the rotation the block has
+  std::vector<double> mask;              // 24 each: the composite mask of its corners' DOFs
+  std::vector<std::int32_t> fine_fixed;  // each: prescribed DOFs at its fine cells' corners
+  assembly::OperatorWeights weights;
+};
+
 class Multigrid {
  public:
   /// Builds the hierarchy for the model's lattice and distribution. `layout` and
@@ -106,6 +132,19 @@ class Multigrid {
                         const std::vector<PetscInt>& constrained_rows);
   /// Makes the next update() rebuild everything.
   void invalidate() { built_ = false; }
+  /// Composite runs: the blocks of the composite level after the last update() (empty
+  /// before the first, or with first_level 0).
+  CompositeBlocks composite_blocks() const;
+  /// Composite runs after a cut: blocks of the previous topology (its composite_blocks()).
+  /// The next full update() takes over the block of every element whose key, weights,
+  /// corner mask and fine prescribed DOFs are the same (rotated by the change of its
+  /// element's rotation; only where rotation commutes with the mask), instead of building
+  /// it from its fine cells; the levels below the composite one are built as always.
+  void carry_composite_blocks(CompositeBlocks blocks) { carried_ = std::move(blocks); }
+  /// Composite elements (on this rank) whose blocks the last full update() carried over.
+  std::int64_t carried_cells() const { return carried_cells_; }
+  /// Per local composite element: its key (empty when the first level is 0).
+  const std::vector<CompositeKey>& composite_keys() const { return composite_keys_; }
   /// What the energy-minimizing interpolation to level l did at the last full rebuild
   /// (rows = 0: trilinear; doc/theory.md, "Coarse spaces after cuts and on thin pieces").
   const EnergyStats& energy_stats(int l) const { return energy_stats_[l]; }
@@ -165,6 +204,12 @@ class Multigrid {
   PetscErrorCode build_coarsest();
   PetscErrorCode build_interpolation(int l);
   PetscErrorCode build_composite_mask();
+  /// The carried blocks that apply (carry_composite_blocks) copied into the composite
+  /// level; (*carried)[C] = 1 for those elements.
+  PetscErrorCode take_carried_blocks(const assembly::CellData& cells, std::vector<char>* carried);
+  /// The rotation element C's block is built at: its fine cells' (identity when there are
+  /// no rotations).
+  const double* element_rotation(const assembly::CellData& cells, std::size_t C) const;
   /// Rotation-only update of the composite level by rotating its blocks; false in *done
   /// when it does not apply (then the Galerkin chain rebuilds them).
   PetscErrorCode rotate_composite_blocks(const assembly::CellData& cells, bool* done);
@@ -189,10 +234,18 @@ class Multigrid {
   std::vector<std::vector<char>> irregular_;  // per level l >= 1: its irregular cells (canonical)
   std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
   std::vector<EnergyStats> energy_stats_;
-  std::vector<double> composite_mask_;             // first level > 0: per local DOF, 0 fixed
-  std::vector<std::int32_t> composite_element_;    // per local fine cell: its first-level cell
-  std::vector<std::int32_t> composite_fine_cell_;  // per local composite element: a fine cell
-  std::vector<double> composite_rotation_;         // per element: rotation its block has
+  std::vector<double> composite_mask_;              // first level > 0: per local DOF, 0 fixed
+  std::vector<std::int32_t> composite_element_;     // per local fine cell: its first-level cell
+  std::vector<std::int32_t> composite_fine_cell_;   // per local composite element: a fine cell
+  std::vector<double> composite_rotation_;          // per element: rotation its block has
+  std::vector<CompositeKey> composite_keys_;        // per local composite element
+  std::vector<std::int32_t> composite_fine_fixed_;  // per element: CompositeBlocks::fine_fixed
+  CompositeBlocks carried_;                         // carry_composite_blocks, until update()
+  std::int64_t carried_cells_ = 0;
+  // Per local fine cell: the Galerkin blocks between it and its composite element were not
+  // built (the element's block was carried over a cut): the next Galerkin update of the
+  // element rebuilds all of it (mark_dirty_fine_cells).
+  std::vector<char> chain_missing_;
   bool rotatable_ = false;  // every composite vertex fixed in all components or none
   Mat shell_ = nullptr;
   KSP coarse_ksp_ = nullptr;

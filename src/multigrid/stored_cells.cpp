@@ -57,12 +57,18 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
 void StoredCells::rotate(const std::vector<double>& dR) {
   const std::size_t n = num_cells();
   dirty_.assign(n, 1);
+  for (std::size_t C = 0; C < n; ++C) rotate_block(C, &dR[9 * C]);
+}
+
+void StoredCells::rotate_block(std::size_t e, const double* R) {
   double A[576];
-  for (std::size_t C = 0; C < n; ++C) {
-    unpack_symmetric(&packed_[kPackedSize * C], A);
-    element::rotate_element_matrix(&dR[9 * C], A, A);
-    pack_symmetric(A, &packed_[kPackedSize * C]);
-  }
+  unpack_symmetric(&packed_[kPackedSize * e], A);
+  element::rotate_element_matrix(R, A, A);
+  pack_symmetric(A, &packed_[kPackedSize * e]);
+}
+
+void StoredCells::set_block(std::size_t e, const double* packed) {
+  std::copy_n(packed, kPackedSize, &packed_[kPackedSize * e]);
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {

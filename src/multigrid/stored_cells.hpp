@@ -38,9 +38,16 @@ class StoredCells final : public assembly::CellOperator {
                         const InterpolationRows* rows = nullptr);
   /// Per local cell: rebuilt by the last galerkin() (or rotated by rotate()).
   const std::vector<char>& dirty() const { return dirty_; }
+  /// Marks every cell in dirty() (their blocks are new to the level below).
+  void mark_all_dirty() { dirty_.assign(num_cells(), 1); }
+  /// Cell e's packed block (kPackedSize numbers), and replacing it.
+  const double* block(std::size_t e) const { return &packed_[kPackedSize * e]; }
+  void set_block(std::size_t e, const double* packed);
   /// A_e <- R^ A_e R^T for every local cell e, R = dR[9 e..] (row-major 3x3 per cell); marks
   /// all cells in dirty().
   void rotate(const std::vector<double>& dR);
+  /// A_e <- R^ A_e R^T for cell e only (R row-major 3x3); dirty() unchanged.
+  void rotate_block(std::size_t e, const double* R);
   /// Dirichlet mask (1 free, 0 fixed; 3 values per local copy, owned and ghosts): galerkin()
   /// zeroes the rows and columns of fixed DOFs in the blocks it builds, D A_C D with
   /// D = diag(mask) (composite elements). Empty: none.
