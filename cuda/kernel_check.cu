@@ -59,6 +59,12 @@ template __global__ void check_functor<be::CellColourRows<mg::StoredCellOps>>(
     be::CellColourRows<mg::StoredCellOps>, int);
 template __global__ void check_functor<be::CellDiagonal<mg::StoredCellOps>>(
     be::CellDiagonal<mg::StoredCellOps>, int);
+template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsSingle>>(
+    be::CellApplyAdd<mg::StoredCellOpsSingle>, int);
+template __global__ void check_functor<be::CellColourRows<mg::StoredCellOpsSingle>>(
+    be::CellColourRows<mg::StoredCellOpsSingle>, int);
+template __global__ void check_functor<be::CellDiagonal<mg::StoredCellOpsSingle>>(
+    be::CellDiagonal<mg::StoredCellOpsSingle>, int);
 
 // extern "C": readable names in the ptxas report.
 extern "C" {
@@ -289,6 +295,11 @@ __global__ void check_packed_row_block(const double* P, const double* x, double*
 }
 
 __global__ void check_packed_apply_add(const double* P, const double* x, double* y) {
+  const int e = thread_index();
+  mg::packed_apply_add(P + mg::kPackedSize * e, x + 24 * e, y + 24 * e);
+}
+
+__global__ void check_packed_apply_add_single(const float* P, const double* x, double* y) {
   const int e = thread_index();
   mg::packed_apply_add(P + mg::kPackedSize * e, x + 24 * e, y + 24 * e);
 }

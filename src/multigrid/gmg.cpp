@@ -156,7 +156,8 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     std::vector<std::int32_t> next(ch.offset.begin(), ch.offset.end() - 1);
     for (std::size_t e = 0; e < fine.layout.cells.size(); ++e)
       ch.child[next[parent_of[e]]++] = std::int32_t(e);
-    d.stored = std::make_unique<StoredCells>(levels_[l].layout);
+    d.stored = std::make_unique<StoredCells>(
+        levels_[l].layout, l > opt_.first_level ? opt_.precision : Precision::double_);
     d.op = d.stored.get();
   }
   // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
@@ -902,13 +903,14 @@ PetscErrorCode Multigrid::cycle(Vec b, Vec x) {
 PetscErrorCode Multigrid::view(PetscViewer viewer) const {
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(
-      viewer, "hexcut gmg: %d levels, hierarchy %s, %s-cycle, smoother %s (%d,%d)%s\n",
+      viewer, "hexcut gmg: %d levels, hierarchy %s, %s-cycle, smoother %s (%d,%d)%s%s\n",
       num_levels(),
       opt_.hierarchy.mode == hierarchy::Coarsening::components ? "components" : "naive",
       opt_.cycle_gamma == 2 ? "W" : "V",
       opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
       opt_.presmooth, opt_.postsmooth,
-      opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : ""));
+      opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : "",
+      opt_.precision == Precision::single ? ", coarse blocks in single precision" : ""));
   if (opt_.first_level > 0)
     PetscCall(PetscViewerASCIIPrintf(
         viewer,
@@ -951,7 +953,10 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     // vectors (6 global + 2 local, ghosts ignored). Level 0 also keeps the rotations the
     // coarse blocks were built from (partial rebuilds compare against them).
     const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
-    const double op = l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * 8.0;
+    const double block_bytes =
+        l > 0 && data_[l]->stored->precision() == Precision::single ? 4.0 : 8.0;
+    const double op =
+        l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * block_bytes;
     const double transfer = l + 1 < num_levels() ? copies * 8.0 * 12.0 : 0.0;
     // Energy-minimized rows (8 3x3 blocks + 8 coarse indices each, on the copies' owners and
     // ghosts) and the Schwarz patches' packed Cholesky factors with their DOF lists.

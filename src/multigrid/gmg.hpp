@@ -66,6 +66,10 @@ struct Options {
   // per application); a solid block keeps presmooth (postsmooth) everywhere.
   double degree_growth = 1.0;
   bool view = false;
+  // Mixed precision (-gmg_precision single): the Galerkin blocks of the levels below the
+  // first are stored in float (products in double); the first level, whose operator is the
+  // outer CG's, stays double, so CG still converges to its rtol in double.
+  Precision precision = Precision::double_;
   // Composite elements (doc/theory.md, "Composite elements"; set by the simulation, not an
   // option): the cycle starts on this level, whose operator is the composite system: the
   // Galerkin blocks of the levels below with the rows and columns of fixed composite DOFs

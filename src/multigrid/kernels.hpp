@@ -114,34 +114,41 @@ HEXCUT_HD inline int packed_index(int r, int c) {
   return r * 24 - (r * (r - 1)) / 2 + (c - r);
 }
 
-HEXCUT_HD inline void pack_symmetric(const double* A, double* P) {
+// The packed blocks may be stored in float (-gmg_precision single: half the memory and
+// memory traffic of the coarse levels); T is the stored type, the arithmetic is double.
+template <class T>
+HEXCUT_HD inline void pack_symmetric(const double* A, T* P) {
   for (int r = 0; r < 24; ++r)
-    for (int c = r; c < 24; ++c) P[packed_index(r, c)] = A[24 * r + c];
+    for (int c = r; c < 24; ++c) P[packed_index(r, c)] = T(A[24 * r + c]);
 }
 
-HEXCUT_HD inline void unpack_symmetric(const double* P, double* A) {
+template <class T>
+HEXCUT_HD inline void unpack_symmetric(const T* P, double* A) {
   for (int r = 0; r < 24; ++r)
-    for (int c = 0; c < 24; ++c) A[24 * r + c] = P[packed_index(r, c)];
+    for (int c = 0; c < 24; ++c) A[24 * r + c] = double(P[packed_index(r, c)]);
 }
 
 /// y3 = rows 3q..3q+2 of the packed symmetric matrix times x24.
-HEXCUT_HD inline void packed_row_block(const double* P, int q, const double* x24, double* y3) {
+template <class T>
+HEXCUT_HD inline void packed_row_block(const T* P, int q, const double* x24, double* y3) {
   double rows[72];  // the three rows, unpacked
   for (int e = 0; e < 3; ++e)
-    for (int c = 0; c < 24; ++c) rows[24 * e + c] = P[packed_index(3 * q + e, c)];
+    for (int c = 0; c < 24; ++c) rows[24 * e + c] = double(P[packed_index(3 * q + e, c)]);
   three_rows(rows, x24, y3);
 }
 
 /// y24 += P x24 for a packed symmetric matrix: each stored entry is used twice.
-HEXCUT_HD inline void packed_apply_add(const double* P, const double* x24, double* y24) {
+template <class T>
+HEXCUT_HD inline void packed_apply_add(const T* P, const double* x24, double* y24) {
   int k = 0;
   for (int r = 0; r < 24; ++r) {
-    y24[r] += P[k] * x24[r];
+    y24[r] += double(P[k]) * x24[r];
     ++k;
     double s = 0.0;
     for (int c = r + 1; c < 24; ++c, ++k) {
-      s += P[k] * x24[c];
-      y24[c] += P[k] * x24[r];
+      const double p = double(P[k]);
+      s += p * x24[c];
+      y24[c] += p * x24[r];
     }
     y24[r] += s;
   }

@@ -163,6 +163,13 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                "-gmg_degree_growth must be >= 1");
     o.degree_growth = w;
   }
+  const char* precisions[] = {"double", "single"};
+  choice = o.precision == Precision::single ? 1 : 0;
+  PetscCall(PetscOptionsEList("-gmg_precision",
+                              "Storage of the coarse levels' Galerkin blocks: double, or single "
+                              "(float; products in double, the outer CG in double)",
+                              "", precisions, 2, precisions[choice], &choice, &set));
+  if (set) o.precision = choice == 1 ? Precision::single : Precision::double_;
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
                              nullptr));

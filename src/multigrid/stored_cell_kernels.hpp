@@ -10,9 +10,11 @@
 
 namespace hexcut::multigrid {
 
-/// The stored cells' per-cell operator for backend/restriction.hpp's kernels.
-struct StoredCellOps {
-  const double* packed;  // kPackedSize per cell
+/// The stored cells' per-cell operator for backend/restriction.hpp's kernels; T: the
+/// stored type (double, or float for -gmg_precision single).
+template <class T>
+struct StoredCellOpsOf {
+  const T* packed;  // kPackedSize per cell
   HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, double* xe, double* ye) const {
     packed_apply_add(packed + kPackedSize * std::int64_t(e), xe, ye);
   }
@@ -21,10 +23,12 @@ struct StoredCellOps {
     packed_row_block(packed + kPackedSize * std::int64_t(e), q, xe, y3);
   }
   HEXCUT_HD void diagonal_block(std::int32_t e, const std::int32_t*, int q, double* D) const {
-    const double* P = packed + kPackedSize * std::int64_t(e);
+    const T* P = packed + kPackedSize * std::int64_t(e);
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) D[3 * i + j] = P[packed_index(3 * q + i, 3 * q + j)];
+      for (int j = 0; j < 3; ++j) D[3 * i + j] = double(P[packed_index(3 * q + i, 3 * q + j)]);
   }
 };
+using StoredCellOps = StoredCellOpsOf<double>;
+using StoredCellOpsSingle = StoredCellOpsOf<float>;
 
 }  // namespace hexcut::multigrid

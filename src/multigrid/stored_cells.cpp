@@ -9,8 +9,11 @@
 
 namespace hexcut::multigrid {
 
-StoredCells::StoredCells(const topology::DofLayout& layout)
-    : CellOperator(layout), packed_(kPackedSize * layout.cells.size(), 0.0) {}
+StoredCells::StoredCells(const topology::DofLayout& layout, Precision precision)
+    : CellOperator(layout), precision_(precision) {
+  (precision == Precision::single ? single_.assign(kPackedSize * layout.cells.size(), 0.0f)
+                                  : packed_.assign(kPackedSize * layout.cells.size(), 0.0));
+}
 
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
                                    const assembly::CellPositions& fine_position,
@@ -49,7 +52,10 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
         if (mask_[3 * std::size_t(corners[i / 3]) + i % 3] == 0.0)
           for (int j = 0; j < 24; ++j) parent[24 * i + j] = parent[24 * j + i] = 0.0;
     }
-    pack_symmetric(parent, &packed_[kPackedSize * C]);
+    if (precision_ == Precision::single)
+      pack_symmetric(parent, &single_[kPackedSize * C]);
+    else
+      pack_symmetric(parent, &packed_[kPackedSize * C]);
   }
   return rebuilt;
 }
@@ -72,24 +78,40 @@ void StoredCells::set_block(std::size_t e, const double* packed) {
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {
-  backend::for_each(std::int64_t(num_cells()),
-                    backend::CellApplyAdd<StoredCellOps>{{packed_.data()}, corners(), x, y});
+  const auto n = std::int64_t(num_cells());
+  if (precision_ == Precision::single)
+    backend::for_each(
+        n, backend::CellApplyAdd<StoredCellOpsSingle>{{single_.data()}, corners(), x, y});
+  else
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{packed_.data()}, corners(), x, y});
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
                                    double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();
-  backend::for_each(std::int64_t(num_cells()), backend::CellColourRows<StoredCellOps>{
-                                                   {packed_.data()}, corners(), p, k, x, y});
+  const auto n = std::int64_t(num_cells());
+  if (precision_ == Precision::single)
+    backend::for_each(
+        n, backend::CellColourRows<StoredCellOpsSingle>{{single_.data()}, corners(), p, k, x, y});
+  else
+    backend::for_each(
+        n, backend::CellColourRows<StoredCellOps>{{packed_.data()}, corners(), p, k, x, y});
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
-  backend::for_each(std::int64_t(num_cells()),
-                    backend::CellDiagonal<StoredCellOps>{{packed_.data()}, corners(), diag});
+  const auto n = std::int64_t(num_cells());
+  if (precision_ == Precision::single)
+    backend::for_each(
+        n, backend::CellDiagonal<StoredCellOpsSingle>{{single_.data()}, corners(), diag});
+  else
+    backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{packed_.data()}, corners(), diag});
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {
-  unpack_symmetric(&packed_[kPackedSize * e], A);
+  if (precision_ == Precision::single)
+    unpack_symmetric(&single_[kPackedSize * e], A);
+  else
+    unpack_symmetric(&packed_[kPackedSize * e], A);
 }
 
 }  // namespace hexcut::multigrid

@@ -21,10 +21,20 @@ struct Children {
   std::vector<std::int32_t> offset, child;
 };
 
+/// How the blocks are stored: double, or float (-gmg_precision single; the products are
+/// still formed in double, only the stored numbers are rounded: half the memory and the
+/// memory traffic of the level's operator).
+enum class Precision { double_, single };
+
 class StoredCells final : public assembly::CellOperator {
  public:
   /// Zero blocks for the layout's local cells.
-  explicit StoredCells(const topology::DofLayout& layout);
+  explicit StoredCells(const topology::DofLayout& layout, Precision precision = Precision::double_);
+  Precision precision() const { return precision_; }
+  /// Bytes of the stored blocks.
+  std::size_t bytes() const {
+    return packed_.size() * sizeof(double) + single_.size() * sizeof(float);
+  }
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
@@ -40,7 +50,8 @@ class StoredCells final : public assembly::CellOperator {
   const std::vector<char>& dirty() const { return dirty_; }
   /// Marks every cell in dirty() (their blocks are new to the level below).
   void mark_all_dirty() { dirty_.assign(num_cells(), 1); }
-  /// Cell e's packed block (kPackedSize numbers), and replacing it.
+  /// Cell e's packed block (kPackedSize numbers), and replacing it. Double precision only
+  /// (the composite level), like rotate() and rotate_block().
   const double* block(std::size_t e) const { return &packed_[kPackedSize * e]; }
   void set_block(std::size_t e, const double* packed);
   /// A_e <- R^ A_e R^T for every local cell e, R = dR[9 e..] (row-major 3x3 per cell); marks
@@ -60,7 +71,9 @@ class StoredCells final : public assembly::CellOperator {
   void cell_matrix(std::size_t e, double* A) const override;
 
  private:
-  std::vector<double> packed_;  // 300 per local cell
+  Precision precision_;
+  std::vector<double> packed_;  // 300 per local cell (double), or empty
+  std::vector<float> single_;   // 300 per local cell (single), or empty
   std::vector<char> dirty_;
   std::vector<double> mask_;
 };
