@@ -294,6 +294,10 @@ const double* Multigrid::element_rotation(const assembly::CellData& cells, std::
              : kIdentity3;
 }
 
+const StoredCells& Multigrid::stored_cells(int l) const {
+  return *data_[l]->stored;
+}
+
 CompositeBlocks Multigrid::composite_blocks() const {
   CompositeBlocks b;
   const int first = opt_.first_level;

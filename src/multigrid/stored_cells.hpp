@@ -50,6 +50,10 @@ class StoredCells final : public assembly::CellOperator {
   const std::vector<char>& dirty() const { return dirty_; }
   /// Marks every cell in dirty() (their blocks are new to the level below).
   void mark_all_dirty() { dirty_.assign(num_cells(), 1); }
+  /// All packed blocks, kPackedSize per local cell: double (null in single precision) and
+  /// float (null in double), for a device backend's copy.
+  const double* packed_double() const { return packed_.empty() ? nullptr : packed_.data(); }
+  const float* packed_single() const { return single_.empty() ? nullptr : single_.data(); }
   /// Cell e's packed block (kPackedSize numbers), and replacing it. Double precision only
   /// (the composite level), like rotate() and rotate_block().
   const double* block(std::size_t e) const { return &packed_[kPackedSize * e]; }

@@ -1,0 +1,28 @@
+// The CUDA backend's first operator (issue 13; doc/theory.md, "Kernel bodies for a CUDA
+// backend"): the stored cells' y += A x on the device, with the same functor bodies the
+// host runs (backend::CellApplyAdd over multigrid::StoredCellOpsOf<T>), launched one colour
+// of backend::colour_cells at a time so that no two threads of a launch scatter into the
+// same vertex copy.
+#pragma once
+
+#include "backend/loop.hpp"
+#include "device_kernels.hpp"
+#include "multigrid/stored_cells.hpp"
+
+namespace hexcut::cuda {
+
+/// y += A x for the stored cells A (in the precision they are stored in) on device 0; x, y:
+/// 3 values per local copy of A's layout (host arrays, copied in and out once per call).
+/// `colours`: backend::colour_cells of A's cells' level positions. Throws
+/// std::runtime_error with the CUDA runtime's message when a call fails.
+inline void stored_apply_add(const multigrid::StoredCells& A, const backend::CellColours& colours,
+                             const double* x, double* y) {
+  const CellArrays cells{std::int64_t(A.num_cells()), A.corners(),         colours.num_colours(),
+                         colours.offset.data(),       colours.cell.data(), A.layout().num_local()};
+  if (A.precision() == multigrid::Precision::single)
+    packed_apply_add(A.packed_single(), cells, x, y);
+  else
+    packed_apply_add(A.packed_double(), cells, x, y);
+}
+
+}  // namespace hexcut::cuda
