@@ -376,32 +376,57 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
   if (!n["file"]) c.fail(n, "image needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
   check_input_file(c, n["file"], path, "image.file");
-  const std::string format = n["format"] ? get_string(c, n["format"], "image.format") : "raw";
-  Eigen::Vector3d origin =
-      n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
-  if (!n["spacing"]) c.fail(n, "image needs 'spacing' (voxel size in m, 3 numbers)");
-  Eigen::Vector3d spacing = get_vec3(c, n["spacing"], "image.spacing");
-  if ((spacing.array() <= 0).any()) c.fail(n["spacing"], "image.spacing must be > 0");
+  // NIfTI files say where their voxels are: the format defaults to nifti for .nii and
+  // .nii.gz, and their spacing and origin are not deck keys.
+  auto ends_with = [&](const std::string& suffix) {
+    return path.size() >= suffix.size() &&
+           path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  const bool nii = ends_with(".nii") || ends_with(".nii.gz");
+  const std::string format = n["format"] ? get_string(c, n["format"], "image.format")
+                             : nii       ? "nifti"
+                                         : "raw";
   std::shared_ptr<geometry::VoxelImage> image;
-  try {
-    if (format == "raw") {
-      if (!n["dims"] || !n["dtype"]) c.fail(n, "raw image needs 'dims' and 'dtype'");
-      std::array<int, 3> dims{};
-      for (int i = 0; i < 3; ++i) dims[i] = get_int(c, n["dims"][i], "image.dims");
-      bool little = !n["endian"] || get_string(c, n["endian"], "image.endian") == "little";
-      image = std::make_shared<geometry::VoxelImage>(geometry::load_raw_image(
-          path, dims, get_string(c, n["dtype"], "image.dtype"), little, origin, spacing));
-    } else if (format == "hdf5") {
-      if (!n["dataset"]) c.fail(n, "hdf5 image needs 'dataset'");
-      image = std::make_shared<geometry::VoxelImage>(geometry::load_hdf5_image(
-          path, get_string(c, n["dataset"], "image.dataset"), origin, spacing));
-    } else {
-      c.fail(n["format"], "image.format must be 'raw' or 'hdf5'");
+  if (format == "nifti") {
+    for (const char* key : {"spacing", "origin", "dims", "dtype", "endian", "dataset"})
+      if (n[key])
+        c.fail(n[key], std::string("image.") + key +
+                           " is not used for a NIfTI image: its header gives the voxels, "
+                           "their size and position");
+    try {
+      geometry::NiftiInfo info;
+      image = std::make_shared<geometry::VoxelImage>(geometry::load_nifti_image(path, &info));
+      if (info.units == "unknown (mm)")
+        c.warn(n["file"], "the NIfTI header gives no spatial unit: taken as mm");
+    } catch (const InputError& e) {
+      c.fail(n["file"], std::string("cannot load image: ") + e.what());
     }
-  } catch (const InputError& e) {
-    c.fail(n["file"], std::string("cannot load image: ") + e.what());
-  } catch (const std::invalid_argument& e) {
-    c.fail(n, std::string("image: ") + e.what());
+  } else {
+    const Eigen::Vector3d origin =
+        n["origin"] ? get_vec3(c, n["origin"], "image.origin") : Eigen::Vector3d::Zero();
+    if (!n["spacing"]) c.fail(n, "image needs 'spacing' (voxel size in m, 3 numbers)");
+    const Eigen::Vector3d spacing = get_vec3(c, n["spacing"], "image.spacing");
+    if ((spacing.array() <= 0).any()) c.fail(n["spacing"], "image.spacing must be > 0");
+    try {
+      if (format == "raw") {
+        if (!n["dims"] || !n["dtype"]) c.fail(n, "raw image needs 'dims' and 'dtype'");
+        std::array<int, 3> dims{};
+        for (int i = 0; i < 3; ++i) dims[i] = get_int(c, n["dims"][i], "image.dims");
+        bool little = !n["endian"] || get_string(c, n["endian"], "image.endian") == "little";
+        image = std::make_shared<geometry::VoxelImage>(geometry::load_raw_image(
+            path, dims, get_string(c, n["dtype"], "image.dtype"), little, origin, spacing));
+      } else if (format == "hdf5") {
+        if (!n["dataset"]) c.fail(n, "hdf5 image needs 'dataset'");
+        image = std::make_shared<geometry::VoxelImage>(geometry::load_hdf5_image(
+            path, get_string(c, n["dataset"], "image.dataset"), origin, spacing));
+      } else {
+        c.fail(n["format"], "image.format must be 'raw', 'hdf5' or 'nifti'");
+      }
+    } catch (const InputError& e) {
+      c.fail(n["file"], std::string("cannot load image: ") + e.what());
+    } catch (const std::invalid_argument& e) {
+      c.fail(n, std::string("image: ") + e.what());
+    }
   }
   GeometryStep s;
   s.where = c.where(n);

@@ -1,4 +1,4 @@
-// 3D voxel images (CT scans, label maps, stiffness maps) read from raw or HDF5 files.
+// 3D voxel images (CT scans, label maps, stiffness maps) read from raw, HDF5 or NIfTI files.
 #pragma once
 
 #include <Eigen/Core>
@@ -42,6 +42,24 @@ VoxelImage load_raw_image(const std::string& path, const std::array<int, 3>& dim
 VoxelImage load_hdf5_image(const std::string& path, const std::string& dataset,
                            const Eigen::Vector3d& origin = Eigen::Vector3d::Zero(),
                            const Eigen::Vector3d& spacing = Eigen::Vector3d::Ones());
+
+/// What load_nifti_image found in the file's header besides the voxels.
+struct NiftiInfo {
+  std::string transform;  ///< "sform", "qform" or "pixdim" (no transform in the file)
+  std::string units;      ///< the file's spatial unit: "m", "mm", "um" or "unknown (mm)"
+  double slope = 1.0, intercept = 0.0;  ///< rescale applied: value = slope * stored + intercept
+  std::array<bool, 3> flipped{false, false, false};  ///< axes reversed to run along +x, +y, +z
+};
+
+/// Reads a NIfTI-1 or NIfTI-2 image (.nii, .nii.gz, .hdr/.img) with the NIfTI reference
+/// library (nifti2_io). The voxel spacing and position come from the file's sform (if its
+/// code is set), else its qform, else pixdim with the origin at 0, in the file's spatial unit
+/// converted to m (unknown: mm, the NIfTI convention); voxel values are rescaled by
+/// scl_slope and scl_inter when the slope is non-zero. Axes along -x, -y or -z are reversed
+/// (origin is then the minimum corner as always); an orientation that is oblique or permutes
+/// the axes is refused, as is an image with more than one volume (4-D) or a complex or RGB
+/// type. Throws hexcut::InputError naming the file and the reason.
+VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info = nullptr);
 
 /// Solid where image->sample(p) >= threshold (never outside the image).
 ShapePtr make_image_threshold(std::shared_ptr<const VoxelImage> image, double threshold);

@@ -1,0 +1,149 @@
+// NIfTI images through the NIfTI reference library (nifti2_io, Debian libnifti2-dev and
+// libniftiio-dev): the library reads the header and voxels (either NIfTI version, gzipped
+// or not, byte-swapped as needed); this file maps the voxel-to-world transform onto
+// VoxelImage's axis-aligned grid (doc/user-guide.md, "Images").
+#include <nifti2_io.h>
+
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "common/errors.hpp"
+#include "geometry/voxel_image.hpp"
+
+namespace hexcut::geometry {
+namespace {
+
+using NiftiPtr = std::unique_ptr<nifti_image, void (*)(nifti_image*)>;
+
+template <class T>
+void convert(const nifti_image& nim, const std::array<bool, 3>& flip, double slope,
+             double intercept, std::vector<float>& out) {
+  const auto* in = static_cast<const T*>(nim.data);
+  const std::int64_t n[3] = {nim.nx, nim.ny, nim.nz};
+  out.resize(std::size_t(n[0] * n[1] * n[2]));
+  for (std::int64_t k = 0; k < n[2]; ++k)
+    for (std::int64_t j = 0; j < n[1]; ++j)
+      for (std::int64_t i = 0; i < n[0]; ++i) {
+        const std::int64_t a = flip[0] ? n[0] - 1 - i : i, b = flip[1] ? n[1] - 1 - j : j,
+                           c = flip[2] ? n[2] - 1 - k : k;
+        out[std::size_t(a + n[0] * (b + n[1] * c))] =
+            float(slope * double(in[i + n[0] * (j + n[1] * k)]) + intercept);
+      }
+}
+
+}  // namespace
+
+VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info) {
+  nifti_set_debug_level(0);  // the library prints to stderr; hexcut reports its own errors
+  NiftiPtr nim(nifti_image_read(path.c_str(), 1), nifti_image_free);
+  if (!nim) throw InputError(path + ": cannot read as a NIfTI image");
+  if (!nim->data) throw InputError(path + ": NIfTI image without voxel data");
+  for (int d = 4; d <= 7; ++d)
+    if (nim->dim[0] >= d && nim->dim[d] > 1)
+      throw InputError(path + ": NIfTI image has " +
+                       std::to_string(nim->nvox / (nim->nx * nim->ny * nim->nz)) +
+                       " volumes (dimension " + std::to_string(d) + " is " +
+                       std::to_string(nim->dim[d]) + "); hexcut reads one 3-D volume");
+  const std::int64_t n[3] = {nim->nx, nim->ny, std::max<std::int64_t>(nim->nz, 1)};
+  for (auto m : n)
+    if (m <= 0 || m > std::numeric_limits<int>::max())
+      throw InputError(path + ": NIfTI image has an empty or huge dimension");
+  NiftiInfo I;
+  // Voxel centre (i, j, k) -> world: x = M (i, j, k)^T + t.
+  double M[3][3] = {{nim->dx, 0, 0}, {0, nim->dy, 0}, {0, 0, nim->dz}}, t[3] = {0, 0, 0};
+  const nifti_dmat44* A = nim->sform_code > 0   ? &nim->sto_xyz
+                          : nim->qform_code > 0 ? &nim->qto_xyz
+                                                : nullptr;
+  I.transform = nim->sform_code > 0 ? "sform" : nim->qform_code > 0 ? "qform" : "pixdim";
+  if (A) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) M[r][c] = A->m[r][c];
+      t[r] = A->m[r][3];
+    }
+  }
+  for (int c = 0; c < 3; ++c) {
+    const double len = std::sqrt(M[0][c] * M[0][c] + M[1][c] * M[1][c] + M[2][c] * M[2][c]);
+    if (!(len > 0) || !std::isfinite(len))
+      throw InputError(path + ": NIfTI " + I.transform + " has a zero or non-finite voxel size");
+    for (int r = 0; r < 3; ++r)
+      if (r != c && std::abs(M[r][c]) > 1e-6 * len)
+        throw InputError(path + ": NIfTI " + I.transform +
+                         " is oblique or permutes the axes (voxel axis " + std::to_string(c) +
+                         " has a world " + "xyz"[r] +
+                         " component); hexcut needs the image axes along x, y, z: resample it "
+                         "first (e.g. with a tool's reslice to the scanner axes)");
+  }
+  double unit = 1e-3;
+  switch (XYZT_TO_SPACE(nim->xyz_units)) {
+    case NIFTI_UNITS_METER:
+      unit = 1.0, I.units = "m";
+      break;
+    case NIFTI_UNITS_MM:
+      unit = 1e-3, I.units = "mm";
+      break;
+    case NIFTI_UNITS_MICRON:
+      unit = 1e-6, I.units = "um";
+      break;
+    default:
+      I.units = "unknown (mm)";
+  }
+  VoxelImage image;
+  for (int a = 0; a < 3; ++a) {
+    const double m = M[a][a];
+    I.flipped[a] = m < 0;
+    image.dims[a] = int(n[a]);
+    image.spacing[a] = std::abs(m) * unit;
+    // The centre of the voxel nearest -infinity along a, less half a voxel: its corner.
+    const double first_centre = m > 0 ? t[a] : t[a] + m * double(n[a] - 1);
+    image.origin[a] = (first_centre - 0.5 * std::abs(m)) * unit;
+  }
+  if (!image.origin.allFinite())
+    throw InputError(path + ": NIfTI " + I.transform + " has a non-finite offset");
+  if (nim->scl_slope != 0.0 && std::isfinite(nim->scl_slope)) {
+    I.slope = nim->scl_slope;
+    I.intercept = std::isfinite(nim->scl_inter) ? nim->scl_inter : 0.0;
+  }
+  auto& v = image.values;
+  switch (nim->datatype) {
+    case DT_UINT8:
+      convert<std::uint8_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_INT8:
+      convert<std::int8_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_INT16:
+      convert<std::int16_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_UINT16:
+      convert<std::uint16_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_INT32:
+      convert<std::int32_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_UINT32:
+      convert<std::uint32_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_INT64:
+      convert<std::int64_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_UINT64:
+      convert<std::uint64_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_FLOAT32:
+      convert<float>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    case DT_FLOAT64:
+      convert<double>(*nim, I.flipped, I.slope, I.intercept, v);
+      break;
+    default:
+      throw InputError(path + ": NIfTI data type " +
+                       std::string(nifti_datatype_string(nim->datatype)) +
+                       " is not a real scalar (hexcut reads integer and float images)");
+  }
+  if (info) *info = I;
+  return image;
+}
+
+}  // namespace hexcut::geometry
