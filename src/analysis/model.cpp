@@ -57,12 +57,12 @@ void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
     if (t.bad > 0) {
       char msg[400];
       std::snprintf(msg, sizeof msg,
-                    "image: Young's modulus (youngs_scale x voxel value) is <= 0 or not finite "
-                    "in %lld filled cell(s), e.g. cell (%d, %d, %d): voxel %g x %g = %g Pa. Only "
-                    "E > 0 can be simulated: remove those cells (threshold + material, or a "
-                    "subtract) or correct the image",
+                    "image: Young's modulus from the image is <= 0 or not finite in %lld "
+                    "filled cell(s), e.g. cell (%d, %d, %d): voxel %g gives %g Pa. Only E > 0 "
+                    "can be simulated: remove those cells (threshold + material, or a "
+                    "subtract), correct the image or set calibration.E_min",
                     (long long)t.bad, t.example[0], t.example[1], t.example[2], t.value,
-                    images[s]->youngs_scale, t.value * images[s]->youngs_scale);
+                    grid.youngs[spec.cell_index(t.example[0], t.example[1], t.example[2])]);
       throw InputError(images[s]->where.prefix() + msg);
     }
     if (t.nan > 0 && warnings)
@@ -77,8 +77,12 @@ void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
 lattice::Lattice build_lattice(const deck::Deck& deck, std::vector<std::string>* warnings) {
   auto grid = geometry::make_empty_grid(deck.lattice);
   for (const auto& step : deck.geometry) {
-    if (step.kind == deck::GeometryStep::Kind::image_youngs)
-      geometry::apply_image_youngs(grid, *step.image, step.youngs_scale);
+    if (step.kind == deck::GeometryStep::Kind::image_youngs) {
+      if (step.calibration)
+        geometry::apply_image_calibrated_youngs(grid, *step.image, *step.calibration);
+      else
+        geometry::apply_image_youngs(grid, *step.image, step.youngs_scale);
+    }
     for (const auto& op : deck::membership_ops(step)) geometry::apply(grid, op);
   }
   if (geometry::count_filled(grid) == 0)

@@ -369,10 +369,43 @@ std::vector<Material> parse_materials(const Context& c, const YAML::Node& n) {
   return out;
 }
 
+/// image.calibration: voxel value -> density -> Young's modulus (doc/user-guide.md, "Images").
+geometry::YoungsCalibration parse_calibration(const Context& c, const YAML::Node& n) {
+  check_map(c, n, "image.calibration");
+  check_keys(c, n, "image.calibration", {"density", "youngs", "E_min", "materials"});
+  geometry::YoungsCalibration cal;
+  if (!n["density"] || !n["youngs"])
+    c.fail(n, "image.calibration needs 'density: {slope, intercept}' and 'youngs: {a, b}'");
+  const auto& d = n["density"];
+  check_map(c, d, "calibration.density");
+  check_keys(c, d, "calibration.density", {"slope", "intercept"});
+  if (!d["slope"]) c.fail(d, "calibration.density needs 'slope'");
+  cal.density_slope = get_double(c, d["slope"], "calibration.density.slope");
+  cal.density_intercept =
+      d["intercept"] ? get_double(c, d["intercept"], "calibration.density.intercept") : 0.0;
+  auto power_law = [&](const YAML::Node& p, const std::string& what) {
+    check_map(c, p, what);
+    check_keys(c, p, what, {"a", "b"});
+    if (!p["a"] || !p["b"]) c.fail(p, what + " needs 'a' (Pa per density unit^b) and 'b'");
+    return std::array<double, 2>{positive(c, p["a"], what + ".a"),
+                                 positive(c, p["b"], what + ".b")};
+  };
+  const auto law = power_law(n["youngs"], "calibration.youngs");
+  cal.a = law[0], cal.b = law[1];
+  if (n["E_min"]) cal.E_min = positive(c, n["E_min"], "calibration.E_min");
+  if (n["materials"]) {
+    check_map(c, n["materials"], "calibration.materials");
+    for (const auto& kv : n["materials"])
+      cal.by_material[material_index(c, kv.first)] =
+          power_law(kv.second, "calibration.materials." + kv.first.as<std::string>());
+  }
+  return cal;
+}
+
 GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
   check_keys(c, n, "image",
              {"file", "format", "dataset", "dims", "dtype", "endian", "origin", "spacing",
-              "threshold", "labels", "material", "youngs_scale"});
+              "threshold", "labels", "material", "youngs_scale", "calibration"});
   if (!n["file"]) c.fail(n, "image needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
   check_input_file(c, n["file"], path, "image.file");
@@ -450,12 +483,15 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
         geometry::make_image_threshold(image, get_double(c, n["threshold"], "image.threshold"));
     if (!n["material"]) c.fail(n, "image with 'threshold' needs 'material'");
     s.material = material_index(c, n["material"]);
-  } else if (n["youngs_scale"]) {
+  } else if (n["youngs_scale"] || n["calibration"]) {
     s.kind = GeometryStep::Kind::image_youngs;
   } else {
-    c.fail(n, "image needs 'labels', 'threshold' (+ 'material') or 'youngs_scale'");
+    c.fail(n, "image needs 'labels', 'threshold' (+ 'material'), 'youngs_scale' or 'calibration'");
   }
+  if (n["youngs_scale"] && n["calibration"])
+    c.fail(n["calibration"], "image: give either 'youngs_scale' or 'calibration', not both");
   if (n["youngs_scale"]) s.youngs_scale = positive(c, n["youngs_scale"], "image.youngs_scale");
+  if (n["calibration"]) s.calibration = parse_calibration(c, n["calibration"]);
   return s;
 }
 
@@ -474,7 +510,8 @@ std::vector<GeometryStep> parse_geometry(const Context& c, const YAML::Node& n) 
       GeometryStep s = parse_image_step(c, op["image"]);
       // A youngs-only image step must also be able to carry labels; add both when given.
       out.push_back(s);
-      if (s.kind != GeometryStep::Kind::image_youngs && op["image"]["youngs_scale"]) {
+      if (s.kind != GeometryStep::Kind::image_youngs &&
+          (op["image"]["youngs_scale"] || op["image"]["calibration"])) {
         s.kind = GeometryStep::Kind::image_youngs;
         out.push_back(s);
       }

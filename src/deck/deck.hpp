@@ -14,6 +14,7 @@
 #include "common/lattice_spec.hpp"
 #include "geometry/shape.hpp"
 #include "geometry/triangle_mesh.hpp"
+#include "geometry/voxelize.hpp"
 #include "geometry/voxel_image.hpp"
 #include "geometry/voxelize.hpp"
 
@@ -43,6 +44,7 @@ struct GeometryStep {
   std::shared_ptr<const geometry::VoxelImage> image;  // image_* kinds
   std::map<int, int> label_to_material;               // image_labels
   double youngs_scale = 1.0;                          // image_youngs
+  std::optional<geometry::YoungsCalibration> calibration;  // image_youngs, instead of the scale
   SourceLocation where;
 };
 

@@ -154,6 +154,62 @@ void apply_image_youngs(VoxelGrid& grid, const VoxelImage& image, double scale) 
   }
 }
 
+double YoungsCalibration::youngs(double value, int material) const {
+  const auto it = by_material.find(material);
+  const double A = it == by_material.end() ? a : it->second[0];
+  const double B = it == by_material.end() ? b : it->second[1];
+  const double rho = std::max(density_slope * value + density_intercept, 0.0);
+  return std::max(A * std::pow(rho, B), E_min);
+}
+
+void apply_image_calibrated_youngs(VoxelGrid& grid, const VoxelImage& image,
+                                   const YoungsCalibration& calibration) {
+  check_grid(grid);
+  if (grid.youngs.empty()) {
+    grid.youngs.assign(grid.material.size(), std::numeric_limits<double>::quiet_NaN());
+  }
+  const auto& spec = grid.spec;
+  // Voxels [first, last) along axis a whose centres lie in [lo, hi).
+  auto centres_in = [&](int a, double lo, double hi, int* first, int* last) {
+    const double o = image.origin[a], s = image.spacing[a];
+    *first = std::max(0, int(std::ceil((lo - o) / s - 0.5)));
+    *last = std::min(image.dims[a], int(std::ceil((hi - o) / s - 0.5)));
+  };
+  std::array<int, 3> lo, hi;
+  cell_box(spec, image.bounds(), lo, hi);
+  for (int k = lo[2]; k < hi[2]; ++k) {
+    for (int j = lo[1]; j < hi[1]; ++j) {
+      for (int i = lo[0]; i < hi[0]; ++i) {
+        const std::int64_t c = spec.cell_index(i, j, k);
+        const int m = grid.material[c];
+        if (m < 0) continue;
+        const Eigen::Vector3d x = spec.cell_centre(i, j, k);
+        int f[3], l[3];
+        for (int a = 0; a < 3; ++a)
+          centres_in(a, x[a] - 0.5 * spec.h, x[a] + 0.5 * spec.h, &f[a], &l[a]);
+        double sum = 0.0;
+        std::int64_t count = 0;
+        for (int vk = f[2]; vk < l[2]; ++vk)
+          for (int vj = f[1]; vj < l[1]; ++vj)
+            for (int vi = f[0]; vi < l[0]; ++vi) {
+              const double v =
+                  image.values[std::size_t(vi) + std::size_t(image.dims[0]) *
+                                                     (std::size_t(vj) + std::size_t(image.dims[1]) *
+                                                                            std::size_t(vk))];
+              if (std::isnan(v)) continue;
+              sum += calibration.youngs(v, m);
+              ++count;
+            }
+        if (count == 0 && (f[0] >= l[0] || f[1] >= l[1] || f[2] >= l[2])) {
+          const double v = image.sample(x);  // a cell smaller than a voxel
+          if (!std::isnan(v)) sum = calibration.youngs(v, m), count = 1;
+        }
+        if (count > 0) grid.youngs[c] = sum / double(count);
+      }
+    }
+  }
+}
+
 std::int64_t count_filled(const VoxelGrid& grid) {
   return std::count_if(grid.material.begin(), grid.material.end(),
                        [](std::int16_t m) { return m >= 0; });

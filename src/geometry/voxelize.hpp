@@ -56,6 +56,28 @@ ShapePtr make_image_labels(std::shared_ptr<const VoxelImage> image, std::set<int
 /// on first use.
 void apply_image_youngs(VoxelGrid& grid, const VoxelImage& image, double scale);
 
+/// The CT calibration of an image (doc/user-guide.md, "Images"; Dick 2012, ch. 5): a
+/// voxel value v (e.g. Hounsfield units) has density rho = density_slope v +
+/// density_intercept (in the unit the deck's numbers give, e.g. g/cm^3) and Young's modulus
+/// E = max(a max(rho, 0)^b, E_min) [Pa], with (a, b) of the cell's material when
+/// `by_material` lists it.
+struct YoungsCalibration {
+  double density_slope = 1.0, density_intercept = 0.0;
+  double a = 1.0, b = 1.0;                           // E = a rho^b [Pa]
+  double E_min = 0.0;                                // [Pa]
+  std::map<int, std::array<double, 2>> by_material;  // material index -> (a, b)
+  /// E [Pa] of a voxel value in a cell of `material`.
+  double youngs(double value, int material) const;
+};
+
+/// Calibrated stiffness map: every filled cell that holds voxel centres gets the mean of
+/// their E (Dick's rule; NaN voxels are skipped, voxels below E_min count as E_min); a
+/// cell smaller than a voxel, holding no centre, takes the E of the voxel at its centre.
+/// Cells outside the image, or whose voxels are all NaN, keep their value (NaN = use the
+/// material). Allocates youngs (all NaN) on first use.
+void apply_image_calibrated_youngs(VoxelGrid& grid, const VoxelImage& image,
+                                   const YoungsCalibration& calibration);
+
 /// Number of filled cells (material >= 0).
 std::int64_t count_filled(const VoxelGrid& grid);
 

@@ -114,6 +114,29 @@ def main():
     rc, out, err = run(["--check", deck])
     check(rc == 0 and f"{deck}:5: warning: 2 filled cell(s) sample a NaN voxel of this image and keep their "
           "material's E" in err, f"NaN voxels of a Young's modulus image: exit {rc}: {err.strip()}")
+
+    # A CT calibration: HU -> density -> E = a rho^b with a floor, per cell (here one voxel
+    # each) in the result's cell_youngs_modulus, against the law written out.
+    hu = [1000.0, -1000.0, -1240.0, 500.0]
+    raw_image(f"{d}/hu.raw", [[v] * 4 for v in hu])
+    calibrated = (IMAGE.replace("FILE", "hu.raw").replace("OUT", f"{d}/cal")
+                  .replace("youngs_scale: 1.0e9}", "calibration: {density: {slope: 0.0008, intercept: 1.0}, "
+                           "youngs: {a: 6.85e9, b: 1.49}, E_min: 1.0e7}}").replace("threshold: -5", "threshold: -2000"))
+    deck = write(d, "hu.yaml", calibrated)
+    rc, out, err = run([deck])
+    check(rc == 0, f"calibrated CT image: exit {rc}: {err.strip()[-300:]}")
+    if rc == 0:
+        import h5py
+        with h5py.File(f"{d}/cal/hu.h5") as f:
+            E = f["/mesh/cell_youngs_modulus"][()]
+            z = f["/mesh/cell_lattice_index"][()][:, 2]  # the layer of each cell
+        want = [max(6.85e9 * max(0.0008 * v + 1.0, 0.0) ** 1.49, 1.0e7) for v in hu]
+        worst = max(abs(E[c] - want[z[c]]) / want[z[c]] for c in range(len(E)))
+        check(len(E) == 16 and worst < 1e-12, f"calibrated E per cell: {len(E)} cells, worst relative error {worst:.1e}")
+    bad = write(d, "hu_bad.yaml", calibrated.replace("youngs: {a: 6.85e9, b: 1.49}, ", ""))
+    rc, out, err = run(["--check", bad])
+    check(rc == 2 and f"{bad}:4:" in err and "needs 'density" in err,
+          f"calibration without youngs: exit {rc}: {err.strip()}")
     return check.finish()
 
 

@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 
 #include "common/errors.hpp"
 #include "geometry/voxel_image.hpp"
@@ -164,4 +166,66 @@ TEST(GeometryImage, ThresholdLabelsAndYoungs) {
   EXPECT_EQ(labels.youngs[spec.cell_index(2, 2, 2)], 1e9);
   EXPECT_EQ(labels.youngs[spec.cell_index(2, 2, 6)], 2e9);
   EXPECT_TRUE(std::isnan(labels.youngs[spec.cell_index(0, 5, 5)]));  // outside the image
+}
+
+TEST(GeometryImage, CalibrationLawsAndTheMeanPerCell) {
+  // HU -> density (g/cm^3) -> E = a rho^b [Pa] with a floor, checked at given values against
+  // the formula written out; then the cell E is the mean of its voxels' E (Dick's rule):
+  // 2x2x2 voxels per cell, a NaN voxel skipped, a per-material law, and cells smaller than
+  // a voxel taking the voxel at their centre.
+  hg::YoungsCalibration cal;
+  cal.density_slope = 0.0008, cal.density_intercept = 1.0;  // rho = 0.0008 HU + 1
+  cal.a = 6.85e9, cal.b = 1.49;                             // Morgan et al. 2003, femoral neck
+  cal.E_min = 10e6;
+  EXPECT_DOUBLE_EQ(cal.youngs(1000.0, 0), 6.85e9 * std::pow(1.8, 1.49));
+  EXPECT_DOUBLE_EQ(cal.youngs(-1000.0, 0), 6.85e9 * std::pow(0.2, 1.49));
+  EXPECT_EQ(cal.youngs(-1240.0, 0), 10e6);  // rho = 0.008: 5.3e6 Pa, floored
+  EXPECT_EQ(cal.youngs(-3000.0, 0), 10e6);  // rho < 0 counts as 0
+  cal.by_material[1] = {1.0e9, 2.0};
+  EXPECT_DOUBLE_EQ(cal.youngs(1000.0, 1), 1.0e9 * 1.8 * 1.8);
+
+  // 4x4x4 voxels of 0.5 m from the origin, value v(i,j,k) = 100 (i + 4 j + 16 k).
+  hg::VoxelImage img;
+  img.dims = {4, 4, 4};
+  img.spacing = Vector3d::Constant(0.5);
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) img.values.push_back(float(100 * (i + 4 * j + 16 * k)));
+  img.values[1 + 4 * (1 + 4 * 1)] = std::numeric_limits<float>::quiet_NaN();  // in cell (0,0,0)
+  hexcut::LatticeSpec spec;
+  spec.h = 1.0;
+  spec.dims = {2, 2, 2};
+  hg::VoxelGrid grid = hg::make_empty_grid(spec);
+  hg::apply(grid, {hg::OpMode::add, hg::make_box(Vector3d::Zero(), Vector3d::Constant(2)), 0});
+  hg::apply(grid, {hg::OpMode::assign, hg::make_box(Vector3d(1, 1, 1), Vector3d::Constant(2)),
+                   1});  // cell (1,1,1)
+  hg::apply_image_calibrated_youngs(grid, img, cal);
+  for (int ck = 0; ck < 2; ++ck)
+    for (int cj = 0; cj < 2; ++cj)
+      for (int ci = 0; ci < 2; ++ci) {
+        const int material = ci == 1 && cj == 1 && ck == 1 ? 1 : 0;
+        double sum = 0;
+        int n = 0;
+        for (int k = 2 * ck; k < 2 * ck + 2; ++k)
+          for (int j = 2 * cj; j < 2 * cj + 2; ++j)
+            for (int i = 2 * ci; i < 2 * ci + 2; ++i) {
+              const float v = img.values[i + 4 * (j + 4 * k)];
+              if (std::isnan(v)) continue;
+              const double rho = std::max(0.0008 * v + 1.0, 0.0);
+              sum += std::max(material ? 1.0e9 * rho * rho : 6.85e9 * std::pow(rho, 1.49), 10e6);
+              ++n;
+            }
+        EXPECT_EQ(n, ci + cj + ck == 0 ? 7 : 8);
+        EXPECT_NEAR(grid.youngs[spec.cell_index(ci, cj, ck)], sum / n, 1e-12 * sum / n)
+            << ci << cj << ck;
+      }
+  // Cells of 0.25 m: each lies in one voxel and takes its E.
+  spec.h = 0.25;
+  spec.dims = {8, 8, 8};
+  hg::VoxelGrid fine = hg::make_empty_grid(spec);
+  hg::apply(fine, {hg::OpMode::add, hg::make_box(Vector3d::Zero(), Vector3d::Constant(2)), 0});
+  hg::apply_image_calibrated_youngs(fine, img, cal);
+  EXPECT_DOUBLE_EQ(fine.youngs[spec.cell_index(5, 2, 7)],
+                   cal.youngs(100.0 * (2 + 4 * 1 + 16 * 3), 0));
+  EXPECT_TRUE(std::isnan(fine.youngs[spec.cell_index(2, 2, 2)]));  // the NaN voxel
 }
