@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "analysis/events.hpp"
 #include "assembly/operator.hpp"
 #include "common/errors.hpp"
 #include "common/mpi_gather.hpp"
 #include "element/element.hpp"
+#include "element/stress.hpp"
 #include "element/trilinear.hpp"
 #include "hexcut_version.hpp"
 
@@ -114,6 +116,7 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
   out->pressure.resize(n);
   out->principal.resize(3 * n);
   out->directions.resize(9 * n);
+  out->energy_density.resize(n);
   Vec ul;
   PetscCall(DMGetLocalVector(M.dm, &ul));
   PetscCall(assembly::global_to_local(M.dm, u, ul));
@@ -137,6 +140,7 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
     out->pressure[e] = s.pressure;
     std::copy(s.principal, s.principal + 3, &out->principal[3 * e]);
     std::copy(s.directions, s.directions + 9, &out->directions[9 * e]);
+    out->energy_density[e] = element::strain_energy_density(s.sigma, C.lambda[e], C.mu[e]);
   }
   PetscCall(VecRestoreArrayRead(ul, &ua));
   PetscCall(DMRestoreLocalVector(M.dm, &ul));
@@ -157,6 +161,8 @@ PetscErrorCode ResultOutput::create(MPI_Comm comm, const Model& model, const dec
   PetscFunctionBeginUser;
   std::unique_ptr<ResultOutput> o(new ResultOutput(comm, model, deck, path, command_line, restart));
   PetscCall(o->create_scatters());
+  if (deck.compare)
+    o->reference_ = std::make_unique<ReferenceState>(comm, *deck.compare, model.lattice.spec);
   *out = std::move(o);
   PetscFunctionReturn(0);
 }
@@ -324,6 +330,62 @@ PetscErrorCode ResultOutput::write_cell_values(std::int64_t step, const std::str
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStressFields& f) {
+  PetscFunctionBeginUser;
+  const auto& R = reference_->fields(step);
+  const auto& L = model_.lattice;
+  const auto& D = model_.layout;
+  const std::size_t n = D.cells.size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> diff(6 * n, nan), norm(n, nan), dvm(n, nan), dsed(n, nan), shield(n, nan);
+  // Per material: compared cells, sums of |d sigma|, d von Mises, shielding.
+  const std::size_t M = deck_.materials.size();
+  std::vector<double> sums(4 * M, 0.0);
+  for (std::size_t e = 0; e < n; ++e) {
+    const auto c = D.cells[e];
+    const auto& p = L.ijk[c];
+    const std::size_t id =
+        std::size_t(p[0]) +
+        std::size_t(L.spec.dims[0]) *
+            (std::size_t(p[1]) + std::size_t(L.spec.dims[1]) * std::size_t(p[2]));
+    const double W0 = R.energy[id];
+    if (std::isnan(W0)) continue;  // no material in the reference
+    const double* s0 = &R.stress[6 * id];
+    const double* s1 = &f.sigma[6 * e];
+    double q = 0.0;
+    for (int k = 0; k < 6; ++k) {
+      diff[6 * e + k] = s1[k] - s0[k];
+      q += (k < 3 ? 1.0 : 2.0) * diff[6 * e + k] * diff[6 * e + k];  // tensor norm
+    }
+    norm[e] = std::sqrt(q);
+    dvm[e] = f.von_mises[e] - element::von_mises_stress(s0);
+    dsed[e] = f.energy_density[e] - W0;
+    shield[e] = W0 > 0.0 ? (W0 - f.energy_density[e]) / W0 : nan;
+    const auto m = std::size_t(L.material[c]);
+    sums[4 * m] += 1.0, sums[4 * m + 1] += norm[e], sums[4 * m + 2] += dvm[e];
+    if (W0 > 0.0) sums[4 * m + 3] += shield[e];
+  }
+  PetscCall(write_cell_values(step, "stress_difference", 6, diff, "Pa"));
+  PetscCall(write_cell_values(step, "stress_difference_norm", 1, norm, "Pa"));
+  PetscCall(write_cell_values(step, "von_mises_change", 1, dvm, "Pa"));
+  PetscCall(write_cell_values(step, "strain_energy_density_change", 1, dsed, "Pa"));
+  PetscCall(write_cell_values(step, "stress_shielding", 1, shield, "1"));
+  PetscCallMPI(
+      MPI_Allreduce(MPI_IN_PLACE, sums.data(), int(sums.size()), MPI_DOUBLE, MPI_SUM, comm_));
+  for (std::size_t m = 0; m < M; ++m) {
+    if (sums[4 * m] == 0) continue;
+    const double k = sums[4 * m];
+    PetscCall(PetscPrintf(comm_,
+                          "compare step %lld (reference step %lld): %s: %lld cells, mean |sigma - "
+                          "sigma_ref| %.4g Pa, mean von Mises change %.4g Pa, mean stress "
+                          "shielding %.4g\n",
+                          (long long)step, (long long)R.step, deck_.materials[m].name.c_str(),
+                          (long long)k, sums[4 * m + 1] / k, sums[4 * m + 2] / k,
+                          sums[4 * m + 3] / k));
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode ResultOutput::write_step(const State& s, bool corotational,
                                         const std::vector<double>* composite_element) {
   PetscFunctionBeginUser;
@@ -345,7 +407,8 @@ PetscErrorCode ResultOutput::write_step(const State& s, bool corotational,
     PetscCall(write_cell_values(s.step, "composite_element", 1, *composite_element, "1"));
   const bool any_stress = o.has_field("stress") || o.has_field("von_mises") ||
                           o.has_field("pressure") || o.has_field("principal_stress") ||
-                          o.has_field("principal_directions");
+                          o.has_field("principal_directions") ||
+                          o.has_field("strain_energy_density") || reference_;
   if (any_stress) {
     CellStressFields f;
     {
@@ -357,6 +420,9 @@ PetscErrorCode ResultOutput::write_step(const State& s, bool corotational,
       PetscCall(write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa"));
     if (o.has_field("pressure"))
       PetscCall(write_cell_values(s.step, "pressure", 1, f.pressure, "Pa"));
+    if (o.has_field("strain_energy_density"))
+      PetscCall(write_cell_values(s.step, "strain_energy_density", 1, f.energy_density, "Pa"));
+    if (reference_) PetscCall(write_comparison(s.step, f));
     // One dataset per principal value and direction (format version 2): scalars to colour
     // by and vectors that ParaView's Glyph takes, where a (n, 3) or (n, 9) table reads as
     // one vector or 9 unnamed components (doc/output-format.md).

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "analysis/model.hpp"
+#include "analysis/reference_state.hpp"
 #include "analysis/state.hpp"
 #include "output/result_writer.hpp"
 #include "solve/linear_solver.hpp"
@@ -22,6 +23,7 @@ namespace hexcut::analysis {
 /// Corotational runs use each cell's own rotation (doc/theory.md, "Stress").
 struct CellStressFields {
   std::vector<double> sigma, von_mises, pressure, principal, directions;  // 6,1,1,3,9 per cell
+  std::vector<double> energy_density;  // 1 per cell: 1/2 sigma:epsilon [Pa]
 };
 PetscErrorCode compute_stress(const Model& model, bool corotational, Vec u, CellStressFields* out);
 
@@ -68,6 +70,9 @@ class ResultOutput {
   PetscErrorCode write_cell_values(std::int64_t step, const std::string& name, int block,
                                    const std::vector<double>& values, const std::string& unit);
   PetscErrorCode write_surface(const State& s);
+  /// compare.reference: the difference fields of this step's stress against the reference
+  /// (doc/user-guide.md, "compare"), and a summary per material on rank 0.
+  PetscErrorCode write_comparison(std::int64_t step, const CellStressFields& f);
   /// Scatters x (a global vector of the model's DM, 3 per point) into points_.natural:
   /// this rank's slab of the points in canonical order.
   PetscErrorCode gather_points(Vec x);
@@ -76,6 +81,7 @@ class ResultOutput {
   const Model& model_;
   const deck::Deck& deck_;
   output::ResultWriter writer_;
+  std::unique_ptr<ReferenceState> reference_;  // compare.reference, or null
   topology::NaturalScatter points_;
   std::map<int, topology::NaturalScatter> cells_;
   PetscInt first_local_cell_ = 0;  // PETSc-ordered cell offset of this rank

@@ -12,6 +12,7 @@
 #include "analysis/driver.hpp"
 #include "analysis/events.hpp"
 #include "analysis/model.hpp"
+#include "analysis/reference_state.hpp"
 #include "analysis/result_output.hpp"
 #include "analysis/simulation.hpp"
 #include "app/options.hpp"
@@ -176,6 +177,7 @@ deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
 void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
   namespace an = analysis;
   const auto options = setup_options(deck);
+  if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};  // its checks
   an::Model model;
   throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
   print_warnings(comm, deck, model);
@@ -215,6 +217,8 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   const bool restart = !job.restart_path.empty();
   const ResultLock lock(comm, restart ? job.restart_path : result_path(deck));
   const ResultPaths paths = plan_result(comm, deck, job);
+  // The reference of compare is checked (lattice, fields) before any work.
+  if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};
 
   an::Model model;
   {

@@ -1016,8 +1016,9 @@ Output parse_output(const Context& c, const YAML::Node& n) {
   }
   if (n["fields"]) {
     static const std::set<std::string> known = {
-        "displacement", "velocity",         "acceleration",         "stress",  "von_mises",
-        "pressure",     "principal_stress", "principal_directions", "surface", "composite_element"};
+        "displacement", "velocity",          "acceleration",         "stress",
+        "von_mises",    "pressure",          "principal_stress",     "principal_directions",
+        "surface",      "composite_element", "strain_energy_density"};
     if (!n["fields"].IsSequence()) c.fail(n["fields"], "output.fields must be a list");
     o.fields.clear();
     for (const auto& f : n["fields"]) {
@@ -1136,7 +1137,7 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
                     const std::string& path) {
   check_keys(c, root, "the deck",
              {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "discretization",
-              "solver", "output"});
+              "solver", "output", "compare"});
   for (const char* required : {"lattice", "materials", "geometry"})
     if (!root[required])
       throw InputError(path, 1, std::string("missing section '") + required + "'");
@@ -1162,6 +1163,17 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
   if (d.output.name.empty()) {
     d.output.name = fs::path(path).stem().string();
     check_output_name(c, nullptr, d.output.name);
+  }
+  if (root["compare"]) {
+    const auto& n = root["compare"];
+    check_map(c, n, "compare");
+    check_keys(c, n, "compare", {"reference"});
+    if (!n["reference"]) c.fail(n, "compare needs 'reference' (a hexcut result file)");
+    Compare cmp;
+    cmp.reference = c.resolve(get_string(c, n["reference"], "compare.reference"));
+    check_input_file(c, n["reference"], cmp.reference, "compare.reference");
+    cmp.where = c.where(n["reference"]);
+    d.compare = cmp;
   }
   if (d.analysis.type == Analysis::Type::static_ && d.supports.empty())
     throw InputError(path, c.line(root),

@@ -14,7 +14,6 @@
 #include "common/lattice_spec.hpp"
 #include "geometry/shape.hpp"
 #include "geometry/triangle_mesh.hpp"
-#include "geometry/voxelize.hpp"
 #include "geometry/voxel_image.hpp"
 #include "geometry/voxelize.hpp"
 
@@ -39,11 +38,11 @@ struct Material {
 struct GeometryStep {
   enum class Kind { add, subtract, assign, image_labels, image_youngs };
   Kind kind = Kind::add;
-  std::shared_ptr<const geometry::Shape> shape;       // add/subtract/assign
-  int material = 0;                                   // add/assign
-  std::shared_ptr<const geometry::VoxelImage> image;  // image_* kinds
-  std::map<int, int> label_to_material;               // image_labels
-  double youngs_scale = 1.0;                          // image_youngs
+  std::shared_ptr<const geometry::Shape> shape;            // add/subtract/assign
+  int material = 0;                                        // add/assign
+  std::shared_ptr<const geometry::VoxelImage> image;       // image_* kinds
+  std::map<int, int> label_to_material;                    // image_labels
+  double youngs_scale = 1.0;                               // image_youngs
   std::optional<geometry::YoungsCalibration> calibration;  // image_youngs, instead of the scale
   SourceLocation where;
 };
@@ -164,9 +163,11 @@ struct Output {
   int checkpoint_every = 0;  // 0 = only at the end
   bool overwrite = false;    // replace an existing result when the run ends (result_files.hpp)
   SourceLocation where;      // the output section (line 1 without one), for errors
-  std::vector<std::string> fields{
-      "displacement", "velocity",         "acceleration",         "stress", "von_mises",
-      "pressure",     "principal_stress", "principal_directions", "surface"};
+  std::vector<std::string> fields{"displacement",     "velocity",
+                                  "acceleration",     "stress",
+                                  "von_mises",        "pressure",
+                                  "principal_stress", "principal_directions",
+                                  "surface",          "strain_energy_density"};
   bool has_field(const std::string& f) const;
 };
 
@@ -202,6 +203,13 @@ struct Cut {
   SourceLocation where;
 };
 
+/// compare: the stress of this run against a reference result of the same lattice
+/// (doc/user-guide.md, "compare").
+struct Compare {
+  std::string reference;  // result file (.h5), resolved against the deck's directory
+  SourceLocation where;
+};
+
 struct Deck {
   std::string path;
   std::string text;  // verbatim, stored in the output
@@ -223,6 +231,7 @@ struct Deck {
   Discretization discretization;
   Solver solver;
   Output output;
+  std::optional<Compare> compare;
 };
 
 /// A geometry step as the membership operations it applies (a label image: one add per

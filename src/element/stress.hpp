@@ -38,4 +38,15 @@ inline double von_mises_stress(const double s[6]) {
   return j2x6 > 0.0 ? std::sqrt(0.5 * j2x6) : 0.0;
 }
 
+/// Strain-energy density W = 1/2 sigma : epsilon [J/m^3 = Pa] of an isotropic linear
+/// material (Lame lambda, mu [Pa]) at stress s (ParaView order), from the compliance
+/// epsilon = (sigma - lambda/(3 lambda + 2 mu) tr(sigma) I) / (2 mu): rotation-invariant,
+/// so the same for the corotated stress.
+inline double strain_energy_density(const double s[6], double lambda, double mu) {
+  const double tr = s[0] + s[1] + s[2];
+  const double ss =
+      s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + 2.0 * (s[3] * s[3] + s[4] * s[4] + s[5] * s[5]);
+  return (ss - lambda / (3.0 * lambda + 2.0 * mu) * tr * tr) / (4.0 * mu);
+}
+
 }  // namespace hexcut::element

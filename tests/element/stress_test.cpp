@@ -157,3 +157,33 @@ TEST(ElementStress, VonMisesAndPressure) {
 
 }  // namespace
 }  // namespace hexcut::element
+
+namespace hexcut::element {
+namespace {
+
+TEST(ElementStress, StrainEnergyDensityIsHalfStressTimesStrain) {
+  // Uniaxial stress s: W = s^2 / (2E); pure shear t: W = t^2 / (2G); and for a general
+  // tensor W = 1/2 sigma:epsilon with epsilon from Hooke's law written out (E, nu form),
+  // unchanged by a rotation of the tensor.
+  const double E = 2.0e9, nu = 0.3, lambda = E * nu / ((1 + nu) * (1 - 2 * nu)),
+               mu = E / (2 * (1 + nu));
+  const double uni[6] = {5.0e6, 0, 0, 0, 0, 0}, shear[6] = {0, 0, 0, 3.0e6, 0, 0};
+  EXPECT_NEAR(strain_energy_density(uni, lambda, mu), 25e12 / (2 * E), 1e-12 * 25e12 / E);
+  EXPECT_NEAR(strain_energy_density(shear, lambda, mu), 9e12 / (2 * mu), 1e-12 * 9e12 / mu);
+  const double s[6] = {3e6, -1e6, 2e6, 0.5e6, -0.7e6, 1.1e6};  // xx yy zz xy yz xz
+  const double S[3][3] = {{s[0], s[3], s[5]}, {s[3], s[1], s[4]}, {s[5], s[4], s[2]}};
+  const double tr = s[0] + s[1] + s[2];
+  double W = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double eps = ((1 + nu) * S[i][j] - (i == j ? nu * tr : 0.0)) / E;
+      W += 0.5 * S[i][j] * eps;
+    }
+  EXPECT_NEAR(strain_energy_density(s, lambda, mu), W, 1e-12 * W);
+  // Rotated by 90 degrees about z: x -> y, y -> -x.
+  const double r[6] = {s[1], s[0], s[2], -s[3], s[5], -s[4]};
+  EXPECT_NEAR(strain_energy_density(r, lambda, mu), W, 1e-12 * W);
+}
+
+}  // namespace
+}  // namespace hexcut::element
