@@ -43,7 +43,11 @@ void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
               ((x - box.lo).array() >= 0.0).all() && ((x - box.hi).array() < 0.0).all();
           if (inside || !std::isnan(v)) {
             auto& t = tally[s];
-            if (std::isnan(v)) {
+            // A calibrated image averages the voxels in the cell: what counts is the E it
+            // gave the cell (NaN: none of its voxels had data), not the centre voxel.
+            const bool no_data =
+                images[s]->calibration ? std::isnan(grid.youngs[c]) : std::isnan(v);
+            if (no_data) {
               ++t.nan;
             } else if (const double E = grid.youngs[c]; !(E > 0.0) || !std::isfinite(E)) {
               if (t.bad++ == 0) t.example = {i, j, k}, t.value = v;

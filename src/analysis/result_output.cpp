@@ -340,7 +340,7 @@ PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStres
   std::vector<double> diff(6 * n, nan), norm(n, nan), dvm(n, nan), dsed(n, nan), shield(n, nan);
   // Per material: compared cells, sums of |d sigma|, d von Mises, shielding.
   const std::size_t M = deck_.materials.size();
-  std::vector<double> sums(4 * M, 0.0);
+  std::vector<double> sums(5 * M, 0.0);  // cells, |d sigma|, d von Mises, shielding, W_ref > 0
   for (std::size_t e = 0; e < n; ++e) {
     const auto c = D.cells[e];
     const auto& p = L.ijk[c];
@@ -362,8 +362,8 @@ PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStres
     dsed[e] = f.energy_density[e] - W0;
     shield[e] = W0 > 0.0 ? (W0 - f.energy_density[e]) / W0 : nan;
     const auto m = std::size_t(L.material[c]);
-    sums[4 * m] += 1.0, sums[4 * m + 1] += norm[e], sums[4 * m + 2] += dvm[e];
-    if (W0 > 0.0) sums[4 * m + 3] += shield[e];
+    sums[5 * m] += 1.0, sums[5 * m + 1] += norm[e], sums[5 * m + 2] += dvm[e];
+    if (W0 > 0.0) sums[5 * m + 3] += shield[e], sums[5 * m + 4] += 1.0;
   }
   PetscCall(write_cell_values(step, "stress_difference", 6, diff, "Pa"));
   PetscCall(write_cell_values(step, "stress_difference_norm", 1, norm, "Pa"));
@@ -373,15 +373,15 @@ PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStres
   PetscCallMPI(
       MPI_Allreduce(MPI_IN_PLACE, sums.data(), int(sums.size()), MPI_DOUBLE, MPI_SUM, comm_));
   for (std::size_t m = 0; m < M; ++m) {
-    if (sums[4 * m] == 0) continue;
-    const double k = sums[4 * m];
+    const double k = sums[5 * m], loaded = sums[5 * m + 4];
+    if (k == 0) continue;
     PetscCall(PetscPrintf(comm_,
                           "compare step %lld (reference step %lld): %s: %lld cells, mean |sigma - "
                           "sigma_ref| %.4g Pa, mean von Mises change %.4g Pa, mean stress "
-                          "shielding %.4g\n",
+                          "shielding %.4g (over the %lld cells with W_ref > 0)\n",
                           (long long)step, (long long)R.step, deck_.materials[m].name.c_str(),
-                          (long long)k, sums[4 * m + 1] / k, sums[4 * m + 2] / k,
-                          sums[4 * m + 3] / k));
+                          (long long)k, sums[5 * m + 1] / k, sums[5 * m + 2] / k,
+                          loaded > 0 ? sums[5 * m + 3] / loaded : 0.0, (long long)loaded));
   }
   PetscFunctionReturn(0);
 }

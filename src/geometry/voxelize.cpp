@@ -184,9 +184,13 @@ void apply_image_calibrated_youngs(VoxelGrid& grid, const VoxelImage& image,
         const int m = grid.material[c];
         if (m < 0) continue;
         const Eigen::Vector3d x = spec.cell_centre(i, j, k);
+        // The cell's faces from the lattice, not centre +- h/2: neighbours share them
+        // exactly, so a voxel centre on a face counts in one cell.
+        const int ijk[3] = {i, j, k};
         int f[3], l[3];
         for (int a = 0; a < 3; ++a)
-          centres_in(a, x[a] - 0.5 * spec.h, x[a] + 0.5 * spec.h, &f[a], &l[a]);
+          centres_in(a, spec.origin[a] + spec.h * ijk[a], spec.origin[a] + spec.h * (ijk[a] + 1),
+                     &f[a], &l[a]);
         double sum = 0.0;
         std::int64_t count = 0;
         for (int vk = f[2]; vk < l[2]; ++vk)

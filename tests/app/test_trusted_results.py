@@ -133,6 +133,13 @@ def main():
         want = [max(6.85e9 * max(0.0008 * v + 1.0, 0.0) ** 1.49, 1.0e7) for v in hu]
         worst = max(abs(E[c] - want[z[c]]) / want[z[c]] for c in range(len(E)))
         check(len(E) == 16 and worst < 1e-12, f"calibrated E per cell: {len(E)} cells, worst relative error {worst:.1e}")
+    # Voxels of density <= 0 without a floor give E = 0: an error, not a silent zero.
+    raw_image(f"{d}/air.raw", [[-2000.0] * 4] + [[v] * 4 for v in hu[1:]])
+    air = write(d, "air.yaml", calibrated.replace("hu.raw", "air.raw").replace(", E_min: 1.0e7", "")
+                .replace("threshold: -2000", "threshold: -3000"))
+    rc, out, err = run(["--check", air])
+    check(rc == 2 and "in 4 filled cell(s)" in err and "calibration.E_min" in err,
+          f"calibrated E = 0 without E_min: exit {rc}: {err.strip()}")
     bad = write(d, "hu_bad.yaml", calibrated.replace("youngs: {a: 6.85e9, b: 1.49}, ", ""))
     rc, out, err = run(["--check", bad])
     check(rc == 2 and f"{bad}:4:" in err and "needs 'density" in err,
