@@ -217,8 +217,16 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   const bool restart = !job.restart_path.empty();
   const ResultLock lock(comm, restart ? job.restart_path : result_path(deck));
   const ResultPaths paths = plan_result(comm, deck, job);
-  // The reference of compare is checked (lattice, fields) before any work.
-  if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};
+  // The reference of compare is checked (lattice, fields) before any work; it cannot be
+  // the file this run writes into (a --restart of itself).
+  if (deck.compare) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(deck.compare->reference, paths.write_path, ec))
+      throw InputError(deck.compare->where.prefix() + "compare.reference '" +
+                       deck.compare->reference +
+                       "' is the result file this run writes into; compare with a copy");
+    (void)an::ReferenceState{comm, *deck.compare, deck.lattice};
+  }
 
   an::Model model;
   {

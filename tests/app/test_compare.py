@@ -91,6 +91,15 @@ def main():
     rc, out, err = run([deck])
     check(rc == 2 and "missing.yaml:" in err, f"missing reference: exit {rc} {err.strip()}")
 
+    # A run that would write into its own reference (a --restart of itself) is refused.
+    own = write(d, "own.yaml", BEAM + f"output: {{directory: {d}/own, checkpoint_every: 1}}\n")
+    run([own])
+    deck = write(d, "own2.yaml", BEAM + f"output: {{directory: {d}/own, name: own}}\n"
+                 f"compare: {{reference: {d}/own/own.h5}}\n")
+    rc, out, err = run([deck, "--restart", f"{d}/own/own.h5"])
+    check(rc == 2 and "is the result file this run writes into" in err,
+          f"reference = the restarted file: exit {rc}: {err.strip()[-300:]}")
+
     # ParaView reads the comparison fields.
     script = os.path.join(d, "pv.py")
     with open(script, "w") as f:
