@@ -16,7 +16,6 @@
 #include <map>
 
 #include "analysis/composite_midpoint.hpp"
-#include "analysis/cutting.hpp"
 #include "assembly/boundary.hpp"
 #include "element/kinematics.hpp"
 #include "fixture.hpp"
@@ -27,12 +26,7 @@ namespace {
 /// A block with a spherical hole and a stiffer part, clamped at x = 0 and on rollers
 /// (y) at x = 1.2, loaded at x = 1.2, and cut from the top to half depth at x = 0.5.
 std::string holed_block(const std::string& analysis, bool supports = true, bool cut = true) {
-  std::string s =
-      "lattice: {h: 0.1, dims: [12, 8, 8]}\n"
-      "materials: {a: {E: 1000.0, nu: 0.3, rho: 2.0}, b: {E: 5000.0, nu: 0.2, rho: 1.0}}\n"
-      "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: a\n"
-      "  - subtract: {sphere: {centre: [0.6, 0.4, 0.4], radius: 0.25}}\n"
-      "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n";
+  std::string s = holed_block_body();
   if (supports)
     s += "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
          "    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      components: [y]\n"
@@ -42,18 +36,6 @@ std::string holed_block(const std::string& analysis, bool supports = true, bool 
     s += "cuts:\n  - blade: {polygon: [[0.5, -1, 0.4], [0.5, 2, 0.4], [0.5, 2, 2], [0.5, -1, 2]]}\n"
          "    time: 0\n";
   return s + "analysis: " + analysis + "\n";
-}
-
-/// Applies every cut of the job's deck to the undeformed body and rebuilds the simulation
-/// on the cut topology; returns the number of links cut.
-std::int64_t cut_everything(Job& job) {
-  analysis::Cutter cutter(job.deck, job.model.lattice);
-  analysis::CutReport r;
-  HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                       &job.state, &r));
-  job.sim.reset();
-  HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
-  return std::int64_t(r.links);
 }
 
 /// The composite interpolation as an AIJ matrix (analysis::composite_interpolation_matrix).
@@ -117,6 +99,17 @@ std::vector<double> rotate_cells_by(Job& job, const Field& u_of_x) {
   return a;
 }
 
+/// Cell rotations of a twist about a tilted axis through the origin, growing along x
+/// (angle * x rad): every composite element turns differently.
+void twist_cells(Job& job, double angle) {
+  rotate_cells_by(job, [angle](const Eigen::Vector3d& x) {
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(angle * x[0], Eigen::Vector3d(0.2, 1, 0.3).normalized())
+            .toRotationMatrix();
+    return Eigen::Vector3d(R * x - x);
+  });
+}
+
 TEST(Composite, LevelZeroIsTheFineModel) {
   // The composite path (restriction, fixed values, lifting, prolongation) at level 0 is
   // the identity: the same displacement as the hexahedra to round-off, with the direct
@@ -149,7 +142,7 @@ TEST(Composite, StiffnessAndMassAreTheGalerkinProductsOfTheFineMatrices) {
         holed_block("{type: dynamic, dt: 0.01, steps: 1}") + "solver: {type: direct}\n" +
         "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    ASSERT_GT(cut_everything(job), 0);
+    ASSERT_GT(job.cut_all(), 0);
     for (const assembly::OperatorWeights& w :
          {assembly::OperatorWeights{1.0, 0.0, true}, assembly::OperatorWeights{0.0, 1.0, false},
           assembly::OperatorWeights{0.0, 1.0, true}, assembly::OperatorWeights{1.2, 400.0, true}}) {
@@ -205,7 +198,7 @@ TEST(Composite, AffineFieldsAreInterpolatedExactlyThroughCuts) {
                              "discretization: {type: composite, level: " + std::to_string(level) +
                              "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    ASSERT_GT(cut_everything(job), 0);
+    ASSERT_GT(job.cut_all(), 0);
     auto* mg = job.sim->multigrid();
     const Eigen::Matrix3d G =
         (Eigen::Matrix3d() << 0.1, -0.3, 0.2, 0.05, 0.4, -0.1, 0.3, 0.0, -0.2).finished();
@@ -389,20 +382,12 @@ TEST(Composite, RotatedBlocksAreTheGalerkinProductsOfTheRotatedFineCells) {
     // rotation does not commute with (such runs rebuild by Galerkin products).
     deck.replace(deck.find("      components: [y]\n"), 22, "");
     Job job(PETSC_COMM_WORLD, deck);
-    auto set_field = [&](double angle) {
-      rotate_cells_by(job, [angle](const Eigen::Vector3d& x) {
-        const Eigen::Matrix3d R =
-            Eigen::AngleAxisd(angle * x[0], Eigen::Vector3d(0.2, 1, 0.3).normalized())
-                .toRotationMatrix();
-        return Eigen::Vector3d(R * x - x);
-      });
-    };
     const assembly::OperatorWeights w{1.3, 250.0, true};
-    set_field(0.4);
+    twist_cells(job, 0.4);
     EXPECT_LT(galerkin_difference(job, w), 1e-12);
-    set_field(1.1);
+    twist_cells(job, 1.1);
     double d = galerkin_difference(job, w);
-    set_field(1.7);  // a second rotation-only update, from the rotated blocks
+    twist_cells(job, 1.7);  // a second rotation-only update, from the rotated blocks
     d = std::max(d, galerkin_difference(job, w));
     auto* mg = job.sim->multigrid();
     std::printf("level %d: rotated blocks vs Galerkin of the rotated fine cells: %.2e\n", level, d);
@@ -441,30 +426,15 @@ TEST(Composite, CutsRebuildOnlyTheElementsTheyChange) {
           std::to_string(level) + "}\n";
       if (mode != roller) deck.replace(deck.find("      components: [y]\n"), 22, "");
       Job job(PETSC_COMM_WORLD, deck);
-      auto set_field = [&](double angle) {
-        rotate_cells_by(job, [angle](const Eigen::Vector3d& x) {
-          const Eigen::Matrix3d R =
-              Eigen::AngleAxisd(angle * x[0], Eigen::Vector3d(0.2, 1, 0.3).normalized())
-                  .toRotationMatrix();
-          return Eigen::Vector3d(R * x - x);
-        });
-      };
       const assembly::OperatorWeights w{1.3, 250.0, true};
-      set_field(0.4);
+      twist_cells(job, 0.4);
       EXPECT_LT(galerkin_difference(job, w), 1e-12);
       const auto before = element_cell_sets(job);
       analysis::CompositeCarry kept = job.sim->composite_carry();
       const auto old_elements =
           analysis::build_composite_elements(*job.sim->multigrid(), job.model.cells);
-      analysis::Cutter cutter(job.deck, job.model.lattice);
-      analysis::CutReport r;
-      HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                           &job.state, &r));
-      ASSERT_GT(r.links, 0u);
-      job.sim.reset();
       if (mode == no_carry) PetscOptionsSetValue(nullptr, "-hexcut_composite_carry", "false");
-      HEXCUT_CALL(
-          analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim, &kept));
+      ASSERT_GT(job.cut_all(&kept), 0);
       PetscOptionsClearValue(nullptr, "-hexcut_composite_carry");
       auto* mg = job.sim->multigrid();
       const auto after = element_cell_sets(job);
@@ -473,11 +443,11 @@ TEST(Composite, CutsRebuildOnlyTheElementsTheyChange) {
         changed += std::find(before.begin(), before.end(), s) == before.end();
       const auto total = std::int64_t(after.size());
       // The elements turned since their blocks were built (roller: not yet).
-      set_field(mode == roller ? 0.4 : 1.1);
+      twist_cells(job, mode == roller ? 0.4 : 1.1);
       double d = galerkin_difference(job, w);
       const auto rebuilt = mg->rebuilt_cells(level), carried = mg->carried_cells();
       if (mode == roller) {
-        set_field(1.1);  // a rotation update: Galerkin products, the kept chains included
+        twist_cells(job, 1.1);  // a rotation update: Galerkin products, the kept chains included
         d = std::max(d, galerkin_difference(job, w));
       }
       const auto E = analysis::build_composite_elements(*mg, job.model.cells, &old_elements);
@@ -598,7 +568,7 @@ TEST(Composite, CutsKeepTheCompositeMomentum) {
     HEXCUT_CALL(analysis::prolong_composite(mg0, vc, job.state.v));
     for (Vec* v : {&x, &vc}) VecDestroy(v);
     const auto copies = job.sim->multigrid()->level(level).layout.num_owned;
-    ASSERT_GT(cut_everything(job), 0);
+    ASSERT_GT(job.cut_all(), 0);
     auto& mg = *job.sim->multigrid();
     HEXCUT_CALL(DMCreateGlobalVector(mg.dm(level), &vc));
     analysis::CompositePreimage preimage(mg);
@@ -632,7 +602,7 @@ TEST(Composite, MidpointForceOnTheCompositeLevelIsTheRestrictedFineForce) {
                              "discretization: {type: composite, level: " + std::to_string(level) +
                              "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    ASSERT_GT(cut_everything(job), 0);
+    ASSERT_GT(job.cut_all(), 0);
     auto& mg = *job.sim->multigrid();
     DM dc = mg.dm(level);
     Vec x, u0c, u1c, fc, fref, u0, u1, f;
@@ -702,7 +672,7 @@ TEST(Composite, PreimageRecoversTheCompositeValues) {
         holed_block("{type: dynamic, dt: 0.01, steps: 1}") + "solver: {type: direct}\n" +
         "discretization: {type: composite, level: " + std::to_string(level) + "}\n";
     Job job(PETSC_COMM_WORLD, deck);
-    ASSERT_GT(cut_everything(job), 0);
+    ASSERT_GT(job.cut_all(), 0);
     auto& mg = *job.sim->multigrid();
     Vec xc, back, x;
     HEXCUT_CALL(DMCreateGlobalVector(mg.dm(level), &xc));

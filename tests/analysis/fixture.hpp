@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/cutting.hpp"
 #include "analysis/driver.hpp"
 #include "analysis/model.hpp"
 #include "analysis/result_output.hpp"
@@ -63,6 +64,17 @@ struct Job {
     double e = 0;
     HEXCUT_CALL(sim->elastic_energy(s, &e));
     return e;
+  }
+  /// Applies every cut of the deck, whatever its time, to the current state and rebuilds
+  /// the simulation on the cut topology (composite runs: with `carry`, the old
+  /// simulation's composite_carry(); may be null). Returns the number of links cut.
+  std::int64_t cut_all(analysis::CompositeCarry* carry = nullptr) {
+    analysis::Cutter cutter(deck, model.lattice);
+    analysis::CutReport r;
+    HEXCUT_CALL(analysis::apply_due_cuts(comm, deck, cutter, 1e300, &model, &state, &r));
+    sim.reset();
+    HEXCUT_CALL(analysis::Simulation::create(comm, model, deck, &sim, carry));
+    return std::int64_t(r.links);
   }
   /// Kinetic + strain energy of the job's state.
   double energy() const { return kinetic_energy(state) + elastic_energy(state); }
@@ -133,6 +145,17 @@ inline Eigen::Vector3d component_sums(Vec v) {
   VecRestoreArrayRead(v, &a);
   MPI_Allreduce(MPI_IN_PLACE, sum, 3, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)v));
   return {sum[0], sum[1], sum[2]};
+}
+
+/// The lattice, materials and geometry of a 1.2 m x 0.8 m x 0.8 m block (12 x 8 x 8 cells)
+/// with a spherical hole and a part 5x stiffer (x > 0.8 m): partly filled and cut-up
+/// coarse cells, and a material jump, for the multigrid and composite tests.
+inline std::string holed_block_body() {
+  return "lattice: {h: 0.1, dims: [12, 8, 8]}\n"
+         "materials: {a: {E: 1000.0, nu: 0.3, rho: 2.0}, b: {E: 5000.0, nu: 0.2, rho: 1.0}}\n"
+         "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: a\n"
+         "  - subtract: {sphere: {centre: [0.6, 0.4, 0.4], radius: 0.25}}\n"
+         "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n";
 }
 
 /// A bar [0,L]x[0,b]x[0,t] clamped at x = 0 with a downward end traction of resultant P.

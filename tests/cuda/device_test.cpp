@@ -16,12 +16,8 @@
 namespace hexcut::testing {
 namespace {
 
-const char* kBlock =
-    "lattice: {h: 0.1, dims: [12, 8, 8]}\n"
-    "materials: {a: {E: 1000.0, nu: 0.3, rho: 2.0}, b: {E: 5000.0, nu: 0.2, rho: 1.0}}\n"
-    "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: a\n"
-    "  - subtract: {sphere: {centre: [0.6, 0.4, 0.4], radius: 0.25}}\n"
-    "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n"
+const std::string kBlock =
+    holed_block_body() +
     "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
     "analysis: {type: static}\n"
     "solver: {type: gmg}\n";

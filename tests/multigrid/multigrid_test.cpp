@@ -10,7 +10,6 @@
 #include <set>
 
 #include "../analysis/fixture.hpp"
-#include "analysis/cutting.hpp"
 #include "assembly/boundary.hpp"
 #include "backend/loop.hpp"
 #include "element/reference.hpp"
@@ -19,12 +18,8 @@
 namespace hexcut::testing {
 namespace {
 
-const char* kBlock =
-    "lattice: {h: 0.1, dims: [12, 8, 8]}\n"
-    "materials: {a: {E: 1000.0, nu: 0.3, rho: 2.0}, b: {E: 5000.0, nu: 0.2, rho: 1.0}}\n"
-    "geometry:\n  - add: {box: {min: [0, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: a\n"
-    "  - subtract: {sphere: {centre: [0.6, 0.4, 0.4], radius: 0.25}}\n"
-    "  - assign: {box: {min: [0.8, 0, 0], max: [1.2, 0.8, 0.8]}}\n    material: b\n"
+const std::string kBlock =
+    holed_block_body() +
     "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
     "    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      components: [y]\n"
     "  traction:\n    - where: {plane: {point: [1.2, 0, 0], normal: [1, 0, 0]}}\n      value: [0, "
@@ -514,6 +509,18 @@ TEST(Multigrid, SchwarzPatchSolveInvertsTheOperatorOnItsPatch) {
   for (Vec* v : {&x, &r, &z}) VecDestroy(v);
 }
 
+/// The Stanford bunny (input/meshes/bunny.obj), 10 cm tall, glued at its base, of cells h
+/// and Poisson's ratio nu (deck numbers), optionally under gravity; solver gmg to 1e-8.
+std::string bunny_deck(const std::string& h, const std::string& nu, bool gravity) {
+  return "lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: " + h + "}\n" +
+         "materials: {tissue: {E: 1.0e5, nu: " + nu + ", rho: 1050}}\n" +
+         "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR
+         "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
+         "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, "
+         "0]}}}]\n" +
+         (gravity ? "  gravity: [0, -9.81, 0]\n" : "") + "solver: {type: gmg, rtol: 1.0e-8}\n";
+}
+
 TEST(Multigrid, CoarsestSolveIsExactWhenTheCoarseLevelIsSingular) {
   // bunny.yaml's body and support with the operator of its dynamic steps (dt 5 ms, mass
   // weight 4/dt^2), 3 levels: the masked Galerkin coarse matrix (2814 DOFs) has three
@@ -524,13 +531,7 @@ TEST(Multigrid, CoarsestSolveIsExactWhenTheCoarseLevelIsSingular) {
   // side with a relative residual of 1e-3, and on 2 ranks, at random, NaN or an
   // indefinite preconditioner; here, without it (-gmg_coarse_mat_mumps_icntl_24 0),
   // |x| / |r| = 2.5e7. With null-pivot detection it is exact on the range.
-  const std::string yaml =
-      std::string("lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: 0.002}\n") +
-      "materials: {tissue: {E: 1.0e5, nu: 0.45, rho: 1050}}\n"
-      "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR
-      "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
-      "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, 0]}}}]\n"
-      "solver: {type: gmg, rtol: 1.0e-8}\n";
+  const std::string yaml = bunny_deck("0.002", "0.45", false);
   const double dt = 0.005;
   Operators ops(yaml, {1.0, 4.0 / (dt * dt), true}, "-gmg_levels 3");
   auto* mg = ops.job.sim->multigrid();
@@ -603,15 +604,7 @@ PetscInt static_iterations(const std::string& yaml, int superblock = 8) {
 
 TEST(Multigrid, BunnyConvergesWithin25Iterations) {
   // The Stanford bunny, 10 cm tall, ~112k cells, glued at its base, under gravity.
-  const std::string yaml =
-      std::string(
-          "lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: 0.0012}\n") +
-      "materials: {tissue: {E: 1.0e5, nu: 0.3, rho: 1050}}\n"
-      "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR
-      "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
-      "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, 0]}}}]\n"
-      "  gravity: [0, -9.81, 0]\n"
-      "solver: {type: gmg, rtol: 1.0e-8}\n";
+  const std::string yaml = bunny_deck("0.0012", "0.3", true);
   Job job(PETSC_COMM_WORLD, yaml);
   ASSERT_GE(job.model.lattice.num_cells(), 100000);
   job.run();
@@ -632,13 +625,7 @@ struct SolveResult {
 SolveResult solve_static(const std::string& yaml, const char* options, bool cut = false) {
   Job job(PETSC_COMM_WORLD, yaml, 8, options);
   if (cut) {
-    analysis::Cutter cutter(job.deck, job.model.lattice);
-    analysis::CutReport r;
-    HEXCUT_CALL(analysis::apply_due_cuts(PETSC_COMM_WORLD, job.deck, cutter, 1e300, &job.model,
-                                         &job.state, &r));
-    EXPECT_GT(r.links, 0u);
-    job.sim.reset();
-    HEXCUT_CALL(analysis::Simulation::create(PETSC_COMM_WORLD, job.model, job.deck, &job.sim));
+    EXPECT_GT(job.cut_all(), 0);
   }
   job.run();
   SolveResult s;
@@ -653,14 +640,7 @@ TEST(Multigrid, SinglePrecisionCoarseLevelsKeepTheIterationsAndTheSolution) {
   // matrix is the double one rounded (relative difference of float's 6e-8, not 0), CG in
   // double still reaches rtol 1e-8 with at most 2 more iterations, and the solutions agree
   // to the tolerance, on the cantilever, the bunny and a cube cut into rods.
-  const std::string bunny =
-      std::string("lattice: {bounds: [[-0.051, 0.0, -0.039], [0.051, 0.098, 0.039]], h: 0.002}\n") +
-      "materials: {tissue: {E: 1.0e5, nu: 0.3, rho: 1050}}\n"
-      "geometry: [{add: {mesh: {file: " HEXCUT_SOURCE_DIR
-      "/input/meshes/bunny.obj, scale: 0.01}}}]\n"
-      "boundary:\n  fixed: [{where: {half_space: {point: [0, 0.003, 0], normal: [0, 1, 0]}}}]\n"
-      "  gravity: [0, -9.81, 0]\n"
-      "solver: {type: gmg, rtol: 1.0e-8}\n";
+  const std::string bunny = bunny_deck("0.002", "0.3", true);
   std::string rods =
       "lattice: {h: 0.0625, dims: [16, 16, 16]}\n"
       "materials: {m: {E: 1.0e6, nu: 0.3, rho: 1000}}\n"
