@@ -46,6 +46,12 @@ CONFIGS = {
     "trilinear W": ("gmg", ["-gmg_cycle", "w"]),
     "robust V": ("gmg", ["-gmg_cycle", "v", "-gmg_interpolation", "energy", "-gmg_schwarz_from", "1",
                          "-gmg_degree_growth", "2"]),
+    "smoothed V": ("gmg", ["-gmg_cycle", "v", "-gmg_interpolation", "smoothed"]),
+    "smoothed W": ("gmg", ["-gmg_cycle", "w", "-gmg_interpolation", "smoothed"]),
+    "smoothed2 V": ("gmg", ["-gmg_cycle", "v", "-gmg_interpolation", "smoothed",
+                            "-gmg_smoothed_levels", "2"]),
+    "smoothed2 W": ("gmg", ["-gmg_cycle", "w", "-gmg_interpolation", "smoothed",
+                            "-gmg_smoothed_levels", "2"]),
     "gamg": ("gamg", []),
     "hypre": ("hypre", []),
 }

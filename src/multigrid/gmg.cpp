@@ -32,7 +32,14 @@ struct Multigrid::LevelData {
   assembly::CellPositions cell_pos;      // per local cell
   std::vector<std::int32_t> local_cell;  // canonical cell -> local index, -1
   Mat P = nullptr;                       // interpolation from level l+1 (3 DOFs per copy)
-  std::unique_ptr<Schwarz> schwarz;      // Chebyshev's preconditioner where uses_schwarz(l)
+  // Smoothed interpolation (levels from assembled_from_ - 1 on): the trilinear P the smoothed
+  // one is made from at each full rebuild, the rows smoothed and omega; levels >=
+  // assembled_from_ hold their operator as an assembled matrix instead of 24x24 blocks.
+  Mat P_trilinear = nullptr;
+  Mat A = nullptr;
+  std::int64_t smoothed_rows = 0;
+  double smoothing_omega = 0.0;
+  std::unique_ptr<Schwarz> schwarz;  // Chebyshev's preconditioner where uses_schwarz(l)
   double lambda_max = 0.0;
 };
 
@@ -103,6 +110,21 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     irregular_[l] = multigrid::irregular_cells(levels_[l - 1], levels_[l], irregular_[l - 1],
                                                l == 1 ? lattice.youngs : std::vector<double>{},
                                                l == 1 ? lattice.poisson : std::vector<double>{});
+  // Smoothed interpolation: the levels below the first transfer that is smoothed are assembled
+  // (their operators are general sparse matrices, no longer one 24x24 block per cell).
+  assembled_from_ = L;
+  if (opt_.interpolation == Interpolation::smoothed) {
+    PetscCheck(opt_.first_level == 0, comm, PETSC_ERR_SUP,
+               "gmg: -gmg_interpolation smoothed is not available with composite elements");
+    PetscCheck(opt_.smoother == Smoother::chebyshev, comm, PETSC_ERR_SUP,
+               "gmg: -gmg_interpolation smoothed needs -gmg_smoother chebyshev (assembled levels "
+               "have no colour sweeps)");
+    for (int l = opt_.energy_from; l + 1 < L; ++l)
+      if (has_irregular_parents(l)) {
+        assembled_from_ = l + 1;
+        break;
+      }
+  }
   for (int l = 0; l < L; ++l) {
     auto d = std::make_unique<LevelData>();
     const auto& lev = levels_[l];
@@ -156,6 +178,7 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     std::vector<std::int32_t> next(ch.offset.begin(), ch.offset.end() - 1);
     for (std::size_t e = 0; e < fine.layout.cells.size(); ++e)
       ch.child[next[parent_of[e]]++] = std::int32_t(e);
+    if (l >= assembled_from_) continue;  // an assembled level: no blocks
     d.stored = std::make_unique<StoredCells>(
         levels_[l].layout, l > opt_.first_level ? opt_.precision : Precision::double_);
     d.op = d.stored.get();
@@ -178,6 +201,10 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     PetscCall(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY));
     PetscCall(MatCreateMAIJ(P, 3, &data_[l]->P));
     PetscCall(MatDestroy(&P));
+    if (l + 1 >= assembled_from_) {
+      data_[l]->P_trilinear = data_[l]->P;
+      PetscCall(PetscObjectReference((PetscObject)data_[l]->P));
+    }
   }
   const int first = opt_.first_level;
   PetscCheck(first < L, comm, PETSC_ERR_USER_INPUT,
@@ -232,6 +259,8 @@ Multigrid::~Multigrid() {
     VecDestroy(&d->xl);
     VecDestroy(&d->yl);
     MatDestroy(&d->P);
+    MatDestroy(&d->P_trilinear);
+    MatDestroy(&d->A);
     if (d->own_dm) DMDestroy(&d->dm);
   }
   MatDestroy(&shell_);
@@ -368,7 +397,8 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   // Anything but rotations changed: rebuild everything (a collective decision).
   int full = !built_ || w.stiffness != weights_.stiffness || w.mass != weights_.mass ||
              w.lumped_mass != weights_.lumped_mass || constrained_rows != built_rows_ ||
-             built_rotation_.size() != cells.rotation.size();
+             built_rotation_.size() != cells.rotation.size() || assembled_from_ < L;
+  // (Assembled levels have no partial rebuild: every update rebuilds them.)
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &full, 1, MPI_INT, MPI_LOR, comm_));
   weights_ = w;
   rebuilt_.assign(L, 0);
@@ -422,6 +452,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   if (built_rotation_.size() != cells.rotation.size())
     built_rotation_.assign(cells.rotation.size(), 0.0);
   for (int l = 1; l < L; ++l) {
+    if (l == assembled_from_) {
+      PetscCall(build_smoothed_chain());
+      for (int k = l; k < L; ++k) rebuilt_[k] = std::int64_t(levels_[k].layout.cells.size());
+      break;
+    }
     auto& d = *data_[l];
     const auto& fd = *data_[l - 1];
     // The interpolation to level l-1 depends on its operator: recomputed on full rebuilds
@@ -525,6 +560,7 @@ PetscErrorCode Multigrid::build_diagonal(int l) {
 
 PetscErrorCode Multigrid::apply_level_impl(int l, Vec x, Vec y) {
   const auto& d = *data_[l];
+  if (d.A) return MatMult(d.A, x, y);  // assembled: identity rows where dead included
   return assembly::apply(d.dm, *d.op, x, y, d.mask);
 }
 
@@ -644,7 +680,7 @@ bool Multigrid::has_irregular_parents(int l) const {
 }
 
 bool Multigrid::uses_schwarz(int l) const {
-  return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 &&
+  return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 && l < assembled_from_ &&
          l >= std::max(opt_.schwarz_from, opt_.first_level) && has_irregular_parents(l);
 }
 
@@ -755,6 +791,143 @@ PetscErrorCode Multigrid::build_interpolation(int l) {
   PetscFunctionReturn(0);
 }
 
+std::int64_t Multigrid::smoothed_rows(int l) const {
+  return data_[l]->smoothed_rows;
+}
+double Multigrid::smoothing_omega(int l) const {
+  return data_[l]->smoothing_omega;
+}
+
+PetscErrorCode Multigrid::smoothing_jacobi(int l, Mat* Dinv) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& lev = levels_[l];
+  const auto& D = lev.layout;
+  // The copies whose rows are smoothed (canonical, the same on every rank): the corners of the
+  // children of irregular coarse cells, grown by layers of cells.
+  const int layers = opt_.smoothed_layers;
+  std::vector<char> mark(std::size_t(lev.copies.num_copies), layers < 0 ? 1 : 0);
+  if (layers >= 0) {
+    const auto& irregular = irregular_[l + 1];
+    const auto& corners = lev.copies.cell_corners;
+    for (std::size_t c = 0; c < corners.size(); ++c)
+      if (irregular[std::size_t(lev.parent[c])])
+        for (auto q : corners[c]) mark[std::size_t(q)] = 1;
+    for (int k = 0; k < layers; ++k) {
+      auto grown = mark;
+      for (const auto& cc : corners)
+        if (std::any_of(cc.begin(), cc.end(), [&](std::int32_t q) { return mark[std::size_t(q)]; }))
+          for (auto q : cc) grown[std::size_t(q)] = 1;
+      mark = std::move(grown);
+    }
+  }
+  PetscCall(MatCreateAIJ(comm_, 3 * D.num_owned, 3 * D.num_owned, PETSC_DETERMINE, PETSC_DETERMINE,
+                         3, nullptr, 0, nullptr, Dinv));
+  d.smoothed_rows = 0;
+  for (std::int32_t i = 0; i < D.num_owned; ++i) {
+    if (!mark[std::size_t(D.copies[i])]) continue;
+    const PetscInt g = D.global_block[std::size_t(D.copies[i])];
+    const PetscInt rows[3] = {3 * g, 3 * g + 1, 3 * g + 2};
+    PetscCall(
+        MatSetValues(*Dinv, 3, rows, 3, rows, &d.diag_inv[9 * std::size_t(i)], INSERT_VALUES));
+    d.smoothed_rows += 3;
+  }
+  PetscCall(MatAssemblyBegin(*Dinv, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(*Dinv, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::assembled_diagonal(int l) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& D = levels_[l].layout;
+  Mat A = d.A;
+  d.diag_inv.assign(9 * std::size_t(D.num_owned), 0.0);
+  std::vector<PetscInt> dead;
+  PetscScalar* m;
+  PetscCall(VecGetArray(d.mask, &m));
+  for (std::int32_t i = 0; i < D.num_owned; ++i) {
+    const PetscInt g = D.global_block[std::size_t(D.copies[i])];
+    double block[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      PetscInt nc;
+      const PetscInt* cols;
+      const PetscScalar* vals;
+      PetscCall(MatGetRow(A, 3 * g + a, &nc, &cols, &vals));
+      for (PetscInt k = 0; k < nc; ++k)
+        if (cols[k] / 3 == g) block[3 * a + int(cols[k] - 3 * g)] = vals[k];
+      PetscCall(MatRestoreRow(A, 3 * g + a, &nc, &cols, &vals));
+    }
+    for (int c = 0; c < 3; ++c) {
+      // As build_diagonal: a DOF no free fine DOF reaches (a zero column of P) is dead.
+      m[3 * i + c] = block[4 * c] != 0.0 ? 1.0 : 0.0;
+      if (m[3 * i + c] == 0.0) {
+        for (int k = 0; k < 3; ++k) block[3 * c + k] = block[3 * k + c] = 0.0;
+        block[4 * c] = 1.0;
+        dead.push_back(3 * g + c);
+      }
+    }
+    if (!invert3(block, &d.diag_inv[9 * std::size_t(i)]))
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_LU_ZRPVT,
+              "gmg: singular 3x3 diagonal block on assembled level %d", l);
+  }
+  PetscCall(VecRestoreArray(d.mask, &m));
+  // Identity rows for the dead DOFs (their rows and columns are zero).
+  PetscCall(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  for (auto r : dead) PetscCall(MatSetValue(A, r, r, 1.0, ADD_VALUES));
+  PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::build_smoothed_chain() {
+  PetscFunctionBeginUser;
+  // Smoothed interpolation (Vanek, Mandel and Brezina 1996; doc/theory.md, "Coarse spaces
+  // after cuts and on thin pieces"): on the rows near irregular coarse cells,
+  // P = (I - omega D^-1 A_l) P_trilinear with omega = 4 / (3 lambda_max(D^-1 A_l)); the
+  // coarse operator is then P^T A_l P, a general sparse matrix (PETSc's MatPtAP), for every
+  // level from assembled_from_ down. Level assembled_from_ - 1 keeps its own operator and is
+  // assembled only here, for the products.
+  const int L = num_levels();
+  const int S = assembled_from_ - 1;
+  PetscCall(PetscLogEventBegin(ev_interp_, 0, 0, 0, 0));
+  Mat A;
+  PetscCall(assembly::create_matrix(comm_, levels_[S].copies, levels_[S].layout, &A));
+  PetscCall(assembly::assemble(*data_[S]->op, data_[S]->mask, A));
+  for (int l = S; l + 1 < L; ++l) {
+    auto& d = *data_[l];
+    auto& c = *data_[l + 1];
+    // The V-cycle's transfer diag(mask) P, made explicit.
+    Mat P;
+    PetscCall(MatConvert(d.P_trilinear, MATAIJ, MAT_INITIAL_MATRIX, &P));
+    PetscCall(MatDiagonalScale(P, d.mask, nullptr));
+    d.smoothed_rows = 0;
+    d.smoothing_omega = 0.0;
+    if (l >= opt_.energy_from && has_irregular_parents(l) &&
+        (opt_.smoothed_levels < 0 || l - S < opt_.smoothed_levels)) {
+      PetscCall(estimate_lambda_max(l));
+      d.smoothing_omega = 4.0 / (3.0 * d.lambda_max);
+      Mat Dinv, DA, DAP;
+      PetscCall(smoothing_jacobi(l, &Dinv));
+      PetscCall(MatMatMult(Dinv, A, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &DA));
+      PetscCall(MatMatMult(DA, P, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &DAP));
+      PetscCall(MatAXPY(P, -d.smoothing_omega, DAP, DIFFERENT_NONZERO_PATTERN));
+      for (Mat* M : {&Dinv, &DA, &DAP}) PetscCall(MatDestroy(M));
+    }
+    PetscCall(MatDestroy(&d.P));
+    d.P = P;
+    PetscCall(MatDestroy(&c.A));
+    PetscCall(MatPtAP(A, P, MAT_INITIAL_MATRIX, 2.0, &c.A));
+    PetscCall(MatSetOption(c.A, MAT_SYMMETRIC, PETSC_TRUE));
+    if (l == S) PetscCall(MatDestroy(&A));  // level S applies its own operator
+    PetscCall(assembled_diagonal(l + 1));
+    A = c.A;
+  }
+  PetscCall(PetscLogEventEnd(ev_interp_, 0, 0, 0, 0));
+  PetscCall(build_coarsest());
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Multigrid::build_composite_mask() {
   PetscFunctionBeginUser;
   // Wu's fixation propagation (doc/theory.md, "Composite elements"): a composite DOF is fixed
@@ -828,11 +1001,20 @@ PetscErrorCode Multigrid::build_coarsest() {
   const int l = num_levels() - 1;
   const auto& lev = levels_[l];
   auto& d = *data_[l];
-  // The pattern never changes: re-filling the same matrix lets the factorization keep
-  // its symbolic phase and redo only the numeric one.
-  if (!coarse_matrix_)
-    PetscCall(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_));
-  PetscCall(assembly::assemble(*d.op, d.mask, coarse_matrix_));
+  if (d.A) {
+    // An assembled level (smoothed interpolation): a new matrix at every rebuild, and a new
+    // solver for it (the factor's MUMPS settings below are made on the factor object).
+    PetscCall(MatDestroy(&coarse_matrix_));
+    PetscCall(KSPDestroy(&coarse_ksp_));
+    coarse_matrix_ = d.A;
+    PetscCall(PetscObjectReference((PetscObject)d.A));
+  } else {
+    // The pattern never changes: re-filling the same matrix lets the factorization keep
+    // its symbolic phase and redo only the numeric one.
+    if (!coarse_matrix_)
+      PetscCall(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_));
+    PetscCall(assembly::assemble(*d.op, d.mask, coarse_matrix_));
+  }
   if (!opt_.factor_coarsest) PetscFunctionReturn(0);
   if (!coarse_ksp_) {
     PetscCall(KSPCreate(comm_, &coarse_ksp_));
@@ -957,11 +1139,21 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     // vectors (6 global + 2 local, ghosts ignored). Level 0 also keeps the rotations the
     // coarse blocks were built from (partial rebuilds compare against them).
     const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
+    // Assembled levels (smoothed interpolation) and smoothed transfers: their AIJ nonzeros.
+    const auto aij_bytes = [](Mat M) {
+      MatInfo info;
+      MatGetInfo(M, MAT_GLOBAL_SUM, &info);
+      return 12.0 * info.nz_used;
+    };
+    const auto& d = *data_[l];
     const double block_bytes =
-        l > 0 && data_[l]->stored->precision() == Precision::single ? 4.0 : 8.0;
-    const double op =
-        l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell)) : cells * kPackedSize * block_bytes;
-    const double transfer = l + 1 < num_levels() ? copies * 8.0 * 12.0 : 0.0;
+        l > 0 && d.stored && d.stored->precision() == Precision::single ? 4.0 : 8.0;
+    const double op = d.A      ? aij_bytes(d.A)
+                      : l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell))
+                               : cells * kPackedSize * block_bytes;
+    const double transfer = l + 1 >= num_levels() ? 0.0
+                            : d.P_trilinear       ? aij_bytes(d.P)
+                                                  : copies * 8.0 * 12.0;
     // Energy-minimized rows (8 3x3 blocks + 8 coarse indices each, on the copies' owners and
     // ghosts) and the Schwarz patches' packed Cholesky factors with their DOF lists.
     std::int64_t extra[3] = {0, 0, 0};  // bytes, rows, patches
@@ -983,11 +1175,13 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     MPI_Allreduce(MPI_IN_PLACE, &rebuilt, 1, MPI_INT64_T, MPI_SUM, comm_);
     total_bytes += bytes;
     if (l == 0) fine_nnz = 9.0 * double(pairs), fine_dofs = 3.0 * copies;
-    PetscCall(PetscViewerASCIIPrintf(
-        viewer, "  %5d %10d %11lld %9d %11lld %12.2f %9lld%s\n", l, int(lev.graph.num_cells()),
-        (long long)shared, 3 * int(lev.copies.num_copies), (long long)(9 * pairs),
-        bytes / (1024.0 * 1024.0), (long long)rebuilt,
-        l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)" : ""));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "  %5d %10d %11lld %9d %11lld %12.2f %9lld%s\n", l,
+                                     int(lev.graph.num_cells()), (long long)shared,
+                                     3 * int(lev.copies.num_copies), (long long)(9 * pairs),
+                                     bytes / (1024.0 * 1024.0), (long long)rebuilt,
+                                     l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)"
+                                     : data_[l]->A         ? "  (assembled: P^T A P)"
+                                                           : ""));
   }
   if (opt_.smoother == Smoother::chebyshev) {
     PetscCall(PetscViewerASCIIPrintf(viewer, "  lambda_max(D^-1 A) estimates:"));
@@ -995,10 +1189,16 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       PetscCall(PetscViewerASCIIPrintf(viewer, " %.4f", data_[l]->lambda_max));
     PetscCall(PetscViewerASCIIPrintf(viewer, "\n"));
   }
-  PetscCall(
-      PetscViewerASCIIPrintf(viewer, "  interpolation %s: %lld energy-minimized rows",
-                             opt_.interpolation == Interpolation::energy ? "energy" : "trilinear",
-                             (long long)energy_rows));
+  const char* interp[] = {"trilinear", "energy", "smoothed"};
+  PetscCall(PetscViewerASCIIPrintf(viewer, "  interpolation %s: %lld energy-minimized rows",
+                                   interp[int(opt_.interpolation)], (long long)energy_rows));
+  for (int l = 0; l + 1 < num_levels(); ++l) {
+    std::int64_t rows = data_[l]->smoothed_rows;
+    MPI_Allreduce(MPI_IN_PLACE, &rows, 1, MPI_INT64_T, MPI_SUM, comm_);
+    if (rows > 0)
+      PetscCall(PetscViewerASCIIPrintf(viewer, "; level %d: %lld smoothed rows, omega %.4f", l,
+                                       (long long)rows, data_[l]->smoothing_omega));
+  }
   for (int l = 0; l + 1 < num_levels(); ++l)
     if (energy_stats_[l].rows > 0)
       PetscCall(PetscViewerASCIIPrintf(viewer, "; level %d: trace(P^T A P) %.3g -> %.3g", l,

@@ -34,7 +34,9 @@ namespace hexcut::multigrid {
 enum class Smoother { gauss_seidel, chebyshev };
 
 /// Interpolation between levels (doc/theory.md, "Coarse spaces after cuts and on thin pieces").
-enum class Interpolation { trilinear, energy };
+/// smoothed: P <- (I - omega D^-1 A) P on the rows near irregular coarse cells; the levels
+/// below the first smoothed transfer are then assembled sparse matrices (P^T A P).
+enum class Interpolation { trilinear, energy, smoothed };
 
 struct Options {
   hierarchy::HierarchyOptions hierarchy;
@@ -57,7 +59,14 @@ struct Options {
   // trilinear elsewhere; computed at each full rebuild, kept across rotation-only updates.
   Interpolation interpolation = Interpolation::trilinear;
   int energy_iterations = 4;
-  int energy_from = 0;  // levels l >= energy_from get energy-minimized rows (to them from l+1)
+  int energy_from = 0;  // levels l >= energy_from get energy-minimized (or smoothed) rows
+  // Smoothed interpolation: the rows smoothed are those of the corners of the children of
+  // irregular coarse cells, grown by this many layers of cells (-1: every row).
+  int smoothed_layers = 1;
+  // Smoothed interpolation: how many transfers are smoothed, from the first with irregular
+  // coarse cells down (-1: all). Each smoothed transfer widens the coarse stencil (27 points
+  // -> 125 after one, ~729 after two), so deeper ones cost more than they gain.
+  int smoothed_levels = 1;
   // Chebyshev preconditioner on levels >= schwarz_from (-1: none): additive Schwarz on the
   // patches of irregular coarse cells (multigrid/schwarz.hpp), point-block Jacobi elsewhere.
   int schwarz_from = -1;
@@ -152,6 +161,14 @@ class Multigrid {
   /// What the energy-minimizing interpolation to level l did at the last full rebuild
   /// (rows = 0: trilinear; doc/theory.md, "Coarse spaces after cuts and on thin pieces").
   const EnergyStats& energy_stats(int l) const { return energy_stats_[l]; }
+  /// Smoothed interpolation: the first level held as an assembled sparse matrix (P^T A P of
+  /// the level above with the smoothed P); num_levels() when none is (every level keeps its
+  /// matrix-free or 24x24-block operator).
+  int assembled_from() const { return assembled_from_; }
+  /// Smoothed interpolation to level l+1: the rows smoothed at the last full rebuild (on
+  /// this rank, DOFs) and the damping omega = 4 / (3 lambda_max(D^-1 A_l)) (0: not smoothed).
+  std::int64_t smoothed_rows(int l) const;
+  double smoothing_omega(int l) const;
   /// Schwarz patches of level l's smoother on this rank (0: point-block Jacobi).
   std::int64_t schwarz_patches(int l) const;
   /// Cells of level l (on this rank) whose operator data the last update() rebuilt.
@@ -209,6 +226,15 @@ class Multigrid {
   PetscErrorCode estimate_lambda_max(int l);
   PetscErrorCode build_coarsest();
   PetscErrorCode build_interpolation(int l);
+  /// Smoothed interpolation: levels >= assembled_from_ as P^T A P of the level above, from the
+  /// assembled operator of level assembled_from_ - 1 down, and the coarsest solver.
+  PetscErrorCode build_smoothed_chain();
+  /// The smoothing rows' point-block Jacobi D^-1 of level l as a sparse matrix (rows outside
+  /// the smoothed set empty).
+  PetscErrorCode smoothing_jacobi(int l, Mat* Dinv);
+  /// diag_inv and mask of an assembled level from its matrix, with identity rows made where
+  /// no fine DOF reaches (dead DOFs).
+  PetscErrorCode assembled_diagonal(int l);
   PetscErrorCode build_composite_mask();
   /// The carried blocks that apply (carry_composite_blocks) copied into the composite
   /// level; (*carried)[C] = 1 for those elements.
@@ -240,7 +266,8 @@ class Multigrid {
   std::vector<std::vector<char>> irregular_;  // per level l >= 1: its irregular cells (canonical)
   std::vector<InterpolationRows> rows_;       // per level l < L-1: energy-minimized rows to it
   std::vector<EnergyStats> energy_stats_;
-  std::vector<double> composite_mask_;              // first level > 0: per local DOF, 0 fixed
+  int assembled_from_ = 0;              // smoothed interpolation: first assembled level (L: none)
+  std::vector<double> composite_mask_;  // first level > 0: per local DOF, 0 fixed
   std::vector<std::int32_t> composite_element_;     // per local fine cell: its first-level cell
   std::vector<std::int32_t> composite_fine_cell_;   // per local composite element: a fine cell
   std::vector<double> composite_rotation_;          // per element: rotation its block has

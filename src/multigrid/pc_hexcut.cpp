@@ -52,7 +52,7 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   const char* hierarchies[] = {"components", "naive"};
   const char* smoothers[] = {"gs", "chebyshev"};
   const char* cycles[] = {"v", "w"};
-  const char* interpolations[] = {"trilinear", "energy"};
+  const char* interpolations[] = {"trilinear", "energy", "smoothed"};
   PetscInt choice;
   PetscOptionsHeadBegin(PetscOptionsObject, "hexcut geometric multigrid (doc/user-guide.md)");
   PetscCall(PetscOptionsInt("-gmg_levels", "Number of levels (0: automatic, from -gmg_coarse_dofs)",
@@ -122,14 +122,33 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
     PetscCheck(n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_eig_every must be >= 1");
     o.eig_every = int(n);
   }
-  choice = o.interpolation == Interpolation::energy ? 1 : 0;
+  choice = int(o.interpolation);
   PetscCall(
       PetscOptionsEList("-gmg_interpolation",
                         "Interpolation: energy (energy-minimizing rows where coarse cells are "
-                        "cut, partial or span a material jump; trilinear elsewhere) or "
+                        "cut, partial or span a material jump; trilinear elsewhere), smoothed "
+                        "(P <- (I - omega D^-1 A) P there; assembled sparse levels below) or "
                         "trilinear everywhere",
-                        "", interpolations, 2, interpolations[choice], &choice, &set));
-  if (set) o.interpolation = choice == 1 ? Interpolation::energy : Interpolation::trilinear;
+                        "", interpolations, 3, interpolations[choice], &choice, &set));
+  if (set) o.interpolation = Interpolation(choice);
+  PetscCall(PetscOptionsInt("-gmg_smoothed_layers",
+                            "Smoothed interpolation: rows smoothed = corners of the children of "
+                            "irregular coarse cells grown by this many cell layers (-1: all rows)",
+                            "", o.smoothed_layers, &n, &set));
+  if (set) {
+    PetscCheck(n >= -1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_smoothed_layers must be >= -1");
+    o.smoothed_layers = int(n);
+  }
+  PetscCall(PetscOptionsInt("-gmg_smoothed_levels",
+                            "Smoothed interpolation: transfers smoothed, from the first with "
+                            "irregular coarse cells down (-1: all)",
+                            "", o.smoothed_levels, &n, &set));
+  if (set) {
+    PetscCheck(n >= -1 && n != 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_smoothed_levels must be -1 or >= 1");
+    o.smoothed_levels = int(n);
+  }
   PetscCall(PetscOptionsInt("-gmg_energy_iterations",
                             "Energy-minimizing interpolation: conjugate-gradient iterations from "
                             "the trilinear rows",
@@ -139,9 +158,9 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                "-gmg_energy_iterations must be >= 0");
     o.energy_iterations = int(n);
   }
-  PetscCall(PetscOptionsInt("-gmg_energy_from",
-                            "Energy-minimizing interpolation to levels >= this (0: all)", "",
-                            o.energy_from, &n, &set));
+  PetscCall(PetscOptionsInt(
+      "-gmg_energy_from", "Energy-minimizing or smoothed interpolation to levels >= this (0: all)",
+      "", o.energy_from, &n, &set));
   if (set) {
     PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_energy_from must be >= 0");
     o.energy_from = int(n);
