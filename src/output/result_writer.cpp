@@ -684,6 +684,27 @@ void ResultWriter::write_field(std::int64_t step, const std::string& name, const
   if (!unit.empty()) file_.write_attribute(path, "unit", unit);
 }
 
+void ResultWriter::write_step_table(std::int64_t step, const std::string& name, std::int64_t rows,
+                                    int cols, const std::vector<double>& data,
+                                    const std::string& columns,
+                                    const std::vector<std::string>& row_names) {
+  require_open_step(step, "table '" + name + "'");
+  validate_name(name);
+  require(cols >= 1 && rows >= 0 && data.size() == std::size_t(rows) * std::size_t(cols) &&
+              row_names.size() == std::size_t(rows),
+          "table '" + name + "': data or row names do not match rows x cols");
+  require(name != "mesh" && name != "surface", "'" + name + "' is reserved, not a table name");
+  int rank = 0;
+  MPI_Comm_rank(comm_, &rank);
+  const std::string path = step_group(step) + "/" + name;
+  file_.write_rows(path, rows, cols, 0, rank == 0 ? rows : 0, data.data());
+  file_.write_attribute(path, "centering", "none");
+  file_.write_attribute(path, "columns", columns);
+  std::string joined;
+  for (std::size_t r = 0; r < row_names.size(); ++r) joined += (r ? "\n" : "") + row_names[r];
+  file_.write_attribute(path, "rows", joined);
+}
+
 void ResultWriter::write_point_field(std::int64_t step, const std::string& name, int cols,
                                      std::int64_t row_offset, std::int64_t local_rows,
                                      const double* data, const std::string& unit) {

@@ -176,6 +176,13 @@ class ResultWriter {
   void write_cell_field(std::int64_t step, const std::string& name, int cols,
                         std::int64_t row_offset, std::int64_t local_rows, const double* data,
                         const std::string& unit = "");
+  /// A small table of the step that is not a mesh field (e.g. the compare summary):
+  /// `rows` x `cols` doubles, row-major, the same on every rank (rank 0's are written), with
+  /// string attributes `columns` (the column names, comma-separated) and `rows` (one name
+  /// per row, newline-separated), and centering "none" (the XDMF index leaves it out).
+  void write_step_table(std::int64_t step, const std::string& name, std::int64_t rows, int cols,
+                        const std::vector<double>& data, const std::string& columns,
+                        const std::vector<std::string>& row_names);
   /// Marks the open step complete, updates /steps@last_complete_step, flushes and closes
   /// the file, then rank 0 rewrites the XDMF indexes.
   void end_step();

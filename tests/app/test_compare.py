@@ -8,6 +8,7 @@ lattice (doc/user-guide.md, "compare"):
   those cells NaN and compares the others;
 - a reference of another lattice, one without strain_energy_density and a missing file
   are refused with exit 2 at the deck line of compare.reference, before any solve;
+- the per-material summary is stored in the step (compare_summary) with the printed means;
 - ParaView reads the difference fields."""
 import os
 import subprocess
@@ -58,6 +59,21 @@ def main():
         check(max(e1, e2, e3) < 1e-7,  # the direct solve of a stiff beam: ~1e-9
                f"twice the load, {ranks} rank(s): d sigma = sigma_ref to {e1:.1e}, "
               f"dW = 3 W_ref to {e2:.1e}, shielding = -3 to {e3:.1e}")
+        # The printed summary is stored in the step: one row per material.
+        with h5py.File(f"{d}/double{ranks}/double{ranks}.h5") as f:
+            g = f["/steps/" + sorted(f["steps"].keys())[-1]]
+            tab, attrs = g["compare_summary"][()], g["compare_summary"].attrs
+            cols = attrs["columns"].decode().split(",")
+            row = dict(zip(cols, tab[0])) if tab.shape == (1, 6) else {}
+            names = attrs["rows"].decode()
+        vm_ref = np.mean(r["von_mises"])
+        check(names == "steel" and row.get("cells") == 40 and row.get("reference_step") == 1
+              and abs(row.get("mean_stress_shielding", 0) + 3) < 1e-7
+              and abs(row.get("mean_von_mises_change", 0) - vm_ref) < 1e-7 * vm_ref
+              and abs(row.get("mean_stress_difference_norm", 0)
+                      - np.mean(t["stress_difference_norm"])) < 1e-9 * vm_ref,
+              f"twice the load, {ranks} rank(s): compare_summary {names}: {row} "
+              f"(mean von Mises of the reference {vm_ref:.6g})")
 
     # A reference without the cells of a slot (as a bone without its implant's cells).
     gap = BEAM.replace("  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
