@@ -104,6 +104,11 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc, CompositeCarry
   multigrid::Options options;
   if (hexcut_pc) {
     PetscCall(multigrid::pc_get_options(pc, &options));
+    if (options.interpolation == multigrid::Interpolation::smoothed)
+      throw InputError(
+          "-gmg_interpolation smoothed is not available with composite elements "
+          "(discretization.level > 0): its assembled coarse levels have no "
+          "composite blocks; use trilinear or energy");
     if (options.hierarchy.levels > 0) options.hierarchy.levels += l;
     if (!options.cycle_set && !model_.lattice.cut_links.empty() &&
         deck_.analysis.type == deck::Analysis::Type::static_)

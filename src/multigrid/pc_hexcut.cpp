@@ -189,6 +189,10 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                               "(float; products in double, the outer CG in double)",
                               "", precisions, 2, precisions[choice], &choice, &set));
   if (set) o.precision = choice == 1 ? Precision::single : Precision::double_;
+  PetscCheck(o.interpolation != Interpolation::smoothed || o.smoother == Smoother::chebyshev,
+             PETSC_COMM_SELF, PETSC_ERR_ARG_INCOMP,
+             "-gmg_interpolation smoothed needs -gmg_smoother chebyshev (its assembled levels have "
+             "no colour sweeps)");
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
                              nullptr));

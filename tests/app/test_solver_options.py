@@ -84,6 +84,13 @@ def main():
     check(rc == 2 and "-gmg_levels must be >= 1" in err, f"-gmg_levels 0 is exit 2 (rc {rc}) {err}")
     rc, out, err = run([path, "--check", "-gmg_smoother", "sor"])
     check(rc == 2 and "gmg_smoother" in err, f"-gmg_smoother sor is exit 2 (rc {rc}) {err}")
+    rc, out, err = run([path, "--check", "-gmg_interpolation", "smoothed", "-gmg_smoother", "gs"])
+    check(rc == 2 and "needs -gmg_smoother chebyshev" in err,
+          f"-gmg_interpolation smoothed with gs is exit 2 (rc {rc}) {err[-300:]}")
+    comp = write(d, "comp.yaml", open(path).read() + "discretization: {type: composite, level: 1}\n")
+    rc, out, err = run([comp, "--check", "-gmg_interpolation", "smoothed"])
+    check(rc == 2 and "not available with composite elements" in err,
+          f"-gmg_interpolation smoothed with composite elements is exit 2 (rc {rc}) {err[-300:]}")
     # The multigrid's options under another solver are unused, and PETSc says so.
     path = deck(d, "unused", "cg-jacobi")
     rc, out, err = run([path, "-gmg_levels", "2"])
