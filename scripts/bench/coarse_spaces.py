@@ -20,7 +20,8 @@ geometric mean of r_k+1/r_k over cycles 3..12), set-up and solve seconds (the re
 solver history; set-up includes the operator's assembly, where the multigrid builds its
 hierarchy), and the multigrid's memory over an assembled level-0 matrix (-gmg_view).
   /usr/bin/python3 scripts/bench/coarse_spaces.py [--n 24] [--cases uncut aligned3 ...]
-      [--configs "trilinear W" "smoothed W" ...]"""
+      [--configs "trilinear W" "smoothed W" ...] [--levels 2 3 4]
+--levels runs every multigrid configuration at those depths (0: the automatic one)."""
 import argparse
 import math
 import os
@@ -187,24 +188,36 @@ def main():
     ap.add_argument("--cases", nargs="+", default=None, help="subset of the cases (default: all)")
     ap.add_argument("--configs", nargs="+", default=DEFAULT_CONFIGS,
                     help="subset of " + ", ".join(CONFIGS) + " (default: " + ", ".join(DEFAULT_CONFIGS) + ")")
+    ap.add_argument("--levels", type=int, nargs="+", default=[0],
+                    help="multigrid depths to run (-gmg_levels; 0: the automatic depth)")
     a = ap.parse_args()
+    for name, (solver, opts) in list(CONFIGS.items()):
+        if solver != "gmg":
+            continue
+        for lv in a.levels:
+            if lv > 0:
+                CONFIGS[f"{name} L{lv}"] = (solver, opts + ["-gmg_levels", str(lv)])
+    if a.levels != [0]:
+        a.configs = [c if lv == 0 or CONFIGS[c][0] != "gmg" else f"{c} L{lv}"
+                     for c in a.configs for lv in a.levels if lv == 0 or CONFIGS[c][0] == "gmg"]
+        a.configs = list(dict.fromkeys(a.configs))
     with tempfile.TemporaryDirectory() as work:
         family = cases(work, a.n)
         names = a.cases or list(family)
         print(f"{a.n}^3 cells; CG iterations to 1e-8 | V-cycle factor | set-up + solve [s] | "
               "multigrid memory / assembled level-0 matrix")
-        print(f"{'case':<14} {'configuration':<12} {'its':>5} {'factor':>7} {'setup':>7} {'solve':>7} "
+        print(f"{'case':<14} {'configuration':<15} {'its':>5} {'factor':>7} {'setup':>7} {'solve':>7} "
               f"{'total':>7} {'memory':>7}")
         for name in names:
             for config in a.configs:
                 r = run(family[name], config, work, a.n)
                 if "its" not in r:
-                    print(f"{name:<14} {config:<12} {r['status']}", flush=True)
+                    print(f"{name:<14} {config:<15} {r['status']}", flush=True)
                     continue
                 fac = float("nan")
                 if CONFIGS[config][0] == "gmg" and not family[name].get("dynamic"):
                     fac = run(family[name], config, work, a.n, cycles=True).get("factor", float("nan"))
-                print(f"{name:<14} {config:<12} {r['its']:>5} {fac:>7.3f} {r['setup']:>7.3f} {r['solve']:>7.3f} "
+                print(f"{name:<14} {config:<15} {r['its']:>5} {fac:>7.3f} {r['setup']:>7.3f} {r['solve']:>7.3f} "
                       f"{r['setup'] + r['solve']:>7.3f} {r['memory']:>7.2f}", flush=True)
 
 
