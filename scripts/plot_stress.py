@@ -119,7 +119,6 @@ def main(argv=None):
     names = "xyz"
     for ax, (name, img, d) in zip(axes[0], panels):
         finite = img[np.isfinite(img)]
-        kw = {}
         if (name in DIVERGING or d is not None) and finite.size:
             m = float(np.max(np.abs(finite))) or 1.0
             kw = dict(cmap="coolwarm", vmin=-m, vmax=m)

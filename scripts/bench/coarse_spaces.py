@@ -191,16 +191,16 @@ def main():
     ap.add_argument("--levels", type=int, nargs="+", default=[0],
                     help="multigrid depths to run (-gmg_levels; 0: the automatic depth)")
     a = ap.parse_args()
-    for name, (solver, opts) in list(CONFIGS.items()):
-        if solver != "gmg":
-            continue
-        for lv in a.levels:
+    # Each multigrid configuration once per depth ("NAME L3": -gmg_levels 3); the algebraic
+    # solvers once.
+    configs = []
+    for c in a.configs:
+        solver, opts = CONFIGS[c]
+        for lv in (a.levels if solver == "gmg" else [0]):
             if lv > 0:
-                CONFIGS[f"{name} L{lv}"] = (solver, opts + ["-gmg_levels", str(lv)])
-    if a.levels != [0]:
-        a.configs = [c if lv == 0 or CONFIGS[c][0] != "gmg" else f"{c} L{lv}"
-                     for c in a.configs for lv in a.levels if lv == 0 or CONFIGS[c][0] == "gmg"]
-        a.configs = list(dict.fromkeys(a.configs))
+                CONFIGS[f"{c} L{lv}"] = (solver, opts + ["-gmg_levels", str(lv)])
+            configs.append(c if lv == 0 else f"{c} L{lv}")
+    a.configs = list(dict.fromkeys(configs))
     with tempfile.TemporaryDirectory() as work:
         family = cases(work, a.n)
         names = a.cases or list(family)

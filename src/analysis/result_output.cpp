@@ -372,33 +372,28 @@ PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStres
   PetscCall(write_cell_values(step, "stress_shielding", 1, shield, "1"));
   PetscCallMPI(
       MPI_Allreduce(MPI_IN_PLACE, sums.data(), int(sums.size()), MPI_DOUBLE, MPI_SUM, comm_));
-  // The same summary stored in the step (one row per material with compared cells).
+  // Per material with compared cells: printed, and stored in the step as one table row.
   std::vector<double> table;
   std::vector<std::string> names;
   for (std::size_t m = 0; m < M; ++m) {
     const double k = sums[5 * m], loaded = sums[5 * m + 4];
     if (k == 0) continue;
+    const double mean_norm = sums[5 * m + 1] / k, mean_dvm = sums[5 * m + 2] / k,
+                 mean_shield = loaded > 0 ? sums[5 * m + 3] / loaded : 0.0;
+    PetscCall(PetscPrintf(comm_,
+                          "compare step %lld (reference step %lld): %s: %lld cells, mean |sigma - "
+                          "sigma_ref| %.4g Pa, mean von Mises change %.4g Pa, mean stress "
+                          "shielding %.4g (over the %lld cells with W_ref > 0)\n",
+                          (long long)step, (long long)R.step, deck_.materials[m].name.c_str(),
+                          (long long)k, mean_norm, mean_dvm, mean_shield, (long long)loaded));
     names.push_back(deck_.materials[m].name);
-    for (double v : {double(R.step), k, sums[5 * m + 1] / k, sums[5 * m + 2] / k,
-                     loaded > 0 ? sums[5 * m + 3] / loaded : 0.0, loaded})
-      table.push_back(v);
+    table.insert(table.end(), {double(R.step), k, mean_norm, mean_dvm, mean_shield, loaded});
   }
   writer_.write_step_table(
       step, "compare_summary", std::int64_t(names.size()), 6, table,
       "reference_step,cells,mean_stress_difference_norm,"
       "mean_von_mises_change,mean_stress_shielding,cells_with_reference_energy",
       names);
-  for (std::size_t m = 0; m < M; ++m) {
-    const double k = sums[5 * m], loaded = sums[5 * m + 4];
-    if (k == 0) continue;
-    PetscCall(PetscPrintf(comm_,
-                          "compare step %lld (reference step %lld): %s: %lld cells, mean |sigma - "
-                          "sigma_ref| %.4g Pa, mean von Mises change %.4g Pa, mean stress "
-                          "shielding %.4g (over the %lld cells with W_ref > 0)\n",
-                          (long long)step, (long long)R.step, deck_.materials[m].name.c_str(),
-                          (long long)k, sums[5 * m + 1] / k, sums[5 * m + 2] / k,
-                          loaded > 0 ? sums[5 * m + 3] / loaded : 0.0, (long long)loaded));
-  }
   PetscFunctionReturn(0);
 }
 

@@ -503,7 +503,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
       if (d0.dirty[e]) chain_missing_[e] = 0;
   if (opt_.smoother == Smoother::chebyshev) {
     if (full || ++updates_since_estimate_ >= opt_.eig_every) {
-      for (int l = first; l + 1 < L; ++l) PetscCall(estimate_lambda_max(l));
+      // Levels whose transfer the smoothed chain made estimated lambda_max for this very
+      // operator already (smoothing_omega > 0): the same start vector gives the same value.
+      for (int l = first; l + 1 < L; ++l)
+        if (data_[l]->smoothing_omega == 0.0) PetscCall(estimate_lambda_max(l));
       updates_since_estimate_ = 0;
     }
   }

@@ -382,8 +382,6 @@ TEST(Multigrid, SmoothedInterpolationIsDampedJacobiOnTheTrilinearOne) {
   MatConvert(tri.job.sim->multigrid()->interpolation(0), MATAIJ, MAT_INITIAL_MATRIX, &Pt);
   MatDiagonalScale(Pt, tri.job.sim->multigrid()->mask(0), nullptr);
   // D^-1 A P_t, assembled by the test.
-  Mat Dinv;
-  MatDuplicate(tri.A, MAT_DO_NOT_COPY_VALUES, &Dinv);
   MatSetBlockSize(tri.A, 3);
   const PetscScalar* blocks;
   MatInvertBlockDiagonal(tri.A, &blocks);
@@ -402,7 +400,6 @@ TEST(Multigrid, SmoothedInterpolationIsDampedJacobiOnTheTrilinearOne) {
   }
   MatAssemblyBegin(Dm, MAT_FINAL_ASSEMBLY);
   MatAssemblyEnd(Dm, MAT_FINAL_ASSEMBLY);
-  MatDestroy(&Dinv);
   Mat DAP;
   MatMatMatMult(Dm, tri.A, Pt, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &DAP);
   // lambda_max(D^-1 A) by 300 power iterations.
