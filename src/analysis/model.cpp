@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "analysis/memory.hpp"
+#include "assembly/initial_stress.hpp"
 #include "common/errors.hpp"
 #include "geometry/voxelize.hpp"
 
@@ -110,6 +111,9 @@ PetscErrorCode build_distributed_data(MPI_Comm comm, const deck::Deck& deck, int
       assembly::reference_positions(M->dm, M->lattice, M->copies, M->layout, &M->coordinates));
   M->cells = assembly::make_cell_data(M->lattice, M->layout);
   M->boundary = assembly::resolve_boundary(comm, deck, M->lattice, M->copies, M->layout);
+  M->cells.initial_stress = assembly::initial_stress_of_cells(comm, deck, M->lattice, M->layout);
+  M->boundary.initial_stress_load = assembly::initial_stress_load(
+      deck, M->lattice, M->copies, M->layout, M->cells.initial_stress);
   PetscFunctionReturn(0);
 }
 
@@ -122,6 +126,7 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCall(require_memory(comm, deck, -1));  // before the dense lattice tables are allocated
   M->lattice = build_lattice(deck, &M->warnings);
+  for (auto& w : assembly::initial_stress_warnings(deck, M->lattice)) M->warnings.push_back(w);
   PetscCall(require_memory(comm, deck, M->lattice.num_cells()));
   M->copies = topology::build_vertex_copies(M->lattice);
   // Composite elements of level l are cells of hierarchy level l, which must lie on one

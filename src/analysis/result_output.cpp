@@ -134,7 +134,12 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
     double u24[24];
     element::gather_cell(ua, D.cell_corners[e].data(), u24);
     const double* R = corotational ? &rotations[9 * e] : identity;
-    const auto s = element::recover_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e]);
+    auto s = element::recover_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e]);
+    if (!C.initial_stress.empty()) {  // sigma0 + sigma(u), and the fields of that sum
+      double total[6];
+      for (int i = 0; i < 6; ++i) total[i] = s.sigma[i] + C.initial_stress[6 * e + i];
+      s = element::stress_fields(total);
+    }
     std::copy(s.sigma, s.sigma + 6, &out->sigma[6 * e]);
     out->von_mises[e] = s.von_mises;
     out->pressure[e] = s.pressure;

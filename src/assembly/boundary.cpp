@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "assembly/field_values.hpp"
 #include "assembly/fine_cells.hpp"
 #include "common/errors.hpp"
 #include "common/mpi_gather.hpp"
@@ -32,33 +33,6 @@ std::vector<char> copies_of_material(const lattice::Lattice& L, const topology::
       if (L.material[c] == material)
         for (auto v : V.cell_corners[c]) mark[v] = 1;
   return mark;
-}
-
-/// f at (x, t); when it is not finite, the first such value is described in `bad`.
-double evaluate(const deck::Field& f, const Eigen::Vector3d& x, double t, std::string& bad) {
-  const double v = f(x, t);
-  if (!std::isfinite(v) && bad.empty()) {
-    char where[160];
-    std::snprintf(where, sizeof where, " at x = %.9g, y = %.9g, z = %.9g m, t = %.9g s", x[0], x[1],
-                  x[2], t);
-    const char* what = std::isnan(v) ? "nan" : (v > 0 ? "inf" : "-inf");
-    bad = f.where.prefix() + "the expression '" + (f.expression ? f.expression->text() : "") +
-          "' is " + what + where;
-  }
-  return v;
-}
-
-/// Throws InputError on every rank when some rank found a non-finite value (`bad` not
-/// empty there), with the message of the lowest such rank. Collective.
-void throw_if_not_finite(MPI_Comm comm, const std::string& bad) {
-  int rank, first;
-  MPI_Comm_rank(comm, &rank);
-  const int mine = bad.empty() ? INT_MAX : rank;
-  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
-  if (first == INT_MAX) return;
-  std::string message = bad;
-  broadcast_string(comm, &message, first);
-  throw InputError(message);
 }
 
 bool uses_expressions(const std::array<deck::Field, 3>& v) {
@@ -299,6 +273,8 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellDat
         for (int d = 0; d < 3; ++d) a[3 * D.cell_corners[e][q] + d] += f[d];
     }
   }
+  for (std::size_t i = 0; i < B.initial_stress_load.size(); ++i)
+    a[i] += scale * B.initial_stress_load[i];
   std::size_t next_varying = 0;
   for (const auto& face : B.faces) {
     const double tf = face.traction ? face.traction->scale(t) : face.pressure->scale(t);

@@ -50,6 +50,9 @@ struct Boundary {
   std::vector<Point> points;
   Eigen::Vector3d gravity{0, 0, 0};
   deck::Centrifugal centrifugal;
+  /// The load of the initial stress on the local copies, 3 per local copy [N]
+  /// (assembly::initial_stress_load); empty: none. Constant in time; it changes with cuts.
+  std::vector<double> initial_stress_load;
 };
 
 /// Resolves the deck's selectors. Throws InputError when one selects nothing (on every
@@ -65,7 +68,8 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
 std::array<Eigen::Vector3d, 4> consistent_face_loads(const Boundary::Face& face, double h, double t,
                                                      std::string& bad);
 
-/// f = scale * external force at time t (gravity, tractions, pressures, point loads);
+/// f = scale * external force at time t (gravity, tractions, pressures, point loads, the
+/// load of the initial stress);
 /// overwritten. A traction or pressure expression that is not finite somewhere throws
 /// InputError naming its deck line, on every rank (collective).
 PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& layout, const CellData& cells,

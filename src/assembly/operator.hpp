@@ -30,6 +30,9 @@ struct CellData {
   std::vector<std::int32_t> rotation_group;
   std::int32_t num_rotation_groups = 0;
   std::vector<std::array<double, 3>> origin;  // per local cell: minimum corner [m]
+  // Initial stress sigma0, 6 per local cell (ParaView order) [Pa]; empty: none
+  // (assembly/initial_stress.hpp). The stress output is sigma0 + sigma(u).
+  std::vector<double> initial_stress;
   // Cells with the same (lambda, mu) share one stiffness K = h (lambda K_lambda + mu
   // K_mu): a few 24x24 matrices per material, never one per cell. kind = -1 when there
   // are too many distinct values (per-cell E from an image): K is formed on the fly.

@@ -238,7 +238,7 @@ int material_index(const Context& c, const YAML::Node& n) {
 
 // ---------------------------------------------------------------- shapes
 geometry::TriangleMesh load_mesh_entry(const Context& c, const YAML::Node& n) {
-  check_keys(c, n, "mesh", {"file", "scale", "translate"});
+  check_keys(c, n, "mesh", {"file", "scale", "rotate", "translate"});
   if (!n["file"]) c.fail(n, "mesh needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "mesh.file"));
   check_input_file(c, n["file"], path, "mesh.file");
@@ -251,7 +251,19 @@ geometry::TriangleMesh load_mesh_entry(const Context& c, const YAML::Node& n) {
   const double scale = n["scale"] ? positive(c, n["scale"], "mesh.scale") : 1.0;
   const Eigen::Vector3d shift =
       n["translate"] ? get_vec3(c, n["translate"], "mesh.translate") : Eigen::Vector3d::Zero();
-  geometry::transform(mesh, scale, shift);
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  if (n["rotate"]) {
+    // An axis and an angle (right-hand rule, degrees): positioning an implant or a blade.
+    const auto& r = n["rotate"];
+    check_keys(c, r, "mesh.rotate", {"axis", "angle"});
+    if (!r["axis"] || !r["angle"])
+      c.fail(r, "mesh.rotate needs 'axis' (vec3) and 'angle' (degrees, right-hand rule)");
+    const Eigen::Vector3d axis = get_vec3(c, r["axis"], "mesh.rotate.axis");
+    if (!(axis.norm() > 0.0)) c.fail(r["axis"], "mesh.rotate.axis must not be zero");
+    const double angle = get_double(c, r["angle"], "mesh.rotate.angle");
+    rotation = Eigen::AngleAxisd(angle * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+  }
+  geometry::transform(mesh, scale, shift, rotation);
   return mesh;
 }
 
@@ -730,6 +742,70 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
   }
 }
 
+/// initial_stress: a list of entries, each a material (optional) and either six values
+/// (numbers or expressions of x, y, z) or an HDF5 dataset on the lattice's cells.
+std::vector<InitialStress> parse_initial_stress(const Context& c, const YAML::Node& n,
+                                                const LatticeSpec& spec) {
+  if (!n.IsSequence() || n.size() == 0)
+    c.fail(n, "initial_stress must be a list of entries (material, value or file + dataset)");
+  static const char* kComponents[6] = {"xx", "yy", "zz", "xy", "yz", "xz"};
+  std::vector<InitialStress> out;
+  for (const auto& e : n) {
+    check_keys(c, e, "initial_stress entry", {"material", "value", "file", "dataset"});
+    InitialStress s;
+    s.where = c.where(e);
+    if (e["material"]) s.material = material_index(c, e["material"]);
+    if (e["value"] && (e["file"] || e["dataset"]))
+      c.fail(e, "initial_stress: give either 'value' or 'file' + 'dataset', not both");
+    if (e["value"]) {
+      const auto& v = e["value"];
+      if (!v.IsSequence() || v.size() != 6)
+        c.fail(v,
+               "initial_stress.value must be a list of 6 numbers or expressions: xx, yy, zz, "
+               "xy, yz, xz [Pa]");
+      for (int i = 0; i < 6; ++i) {
+        s.value[i] =
+            parse_field(c, v[i], std::string("initial_stress.value.") + kComponents[i], false);
+        if (s.value[i].depends_on_time())
+          c.fail(v[i], std::string("initial_stress.value.") + kComponents[i] +
+                           ": an initial stress is fixed in time; the expression may use x, y "
+                           "and z, not t");
+      }
+    } else if (e["file"] || e["dataset"]) {
+      if (!e["file"] || !e["dataset"])
+        c.fail(e, "initial_stress from a file needs both 'file' and 'dataset'");
+      const std::string path = c.resolve(get_string(c, e["file"], "initial_stress.file"));
+      check_input_file(c, e["file"], path, "initial_stress.file");
+      const std::string name = get_string(c, e["dataset"], "initial_stress.dataset");
+      geometry::Hdf5Array<double> a;
+      try {
+        a = geometry::load_hdf5_array<double>(path, name);
+      } catch (const InputError& err) {
+        c.fail(e["file"], std::string("initial_stress: ") + err.what());
+      }
+      const std::vector<std::uint64_t> want{
+          std::uint64_t(spec.dims[2]), std::uint64_t(spec.dims[1]), std::uint64_t(spec.dims[0]), 6};
+      if (a.shape != want) {
+        std::string got;
+        for (auto d : a.shape) got += (got.empty() ? "" : ", ") + std::to_string(d);
+        c.fail(e["dataset"], "initial_stress: dataset '" + name + "' has shape (" + got +
+                                 "); it must be (nz, ny, nx, 6) = (" + std::to_string(want[0]) +
+                                 ", " + std::to_string(want[1]) + ", " + std::to_string(want[2]) +
+                                 ", 6) of the lattice's cells, components xx, yy, zz, xy, yz, xz "
+                                 "[Pa]");
+      }
+      if (std::any_of(a.values.begin(), a.values.end(), [](double x) { return std::isinf(x); }))
+        c.fail(e["dataset"], "initial_stress: dataset '" + name +
+                                 "' holds infinite values (NaN marks cells without a value)");
+      s.cells = std::make_shared<const std::vector<double>>(std::move(a.values));
+    } else {
+      c.fail(e, "initial_stress entry needs 'value' (6 components) or 'file' + 'dataset'");
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
 std::vector<Eigen::Vector3d> get_points(const Context& c, const YAML::Node& n,
                                         const std::string& what, std::size_t min_count) {
   if (!n.IsSequence() || n.size() < min_count)
@@ -1137,7 +1213,7 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
                     const std::string& path) {
   check_keys(c, root, "the deck",
              {"lattice", "materials", "geometry", "boundary", "cuts", "analysis", "discretization",
-              "solver", "output", "compare"});
+              "solver", "output", "compare", "initial_stress"});
   for (const char* required : {"lattice", "materials", "geometry"})
     if (!root[required])
       throw InputError(path, 1, std::string("missing section '") + required + "'");
@@ -1174,6 +1250,15 @@ Deck parse_sections(Context& c, const YAML::Node& root, const std::string& text,
     check_input_file(c, n["reference"], cmp.reference, "compare.reference");
     cmp.where = c.where(n["reference"]);
     d.compare = cmp;
+  }
+  if (root["initial_stress"]) {
+    d.initial_stress = parse_initial_stress(c, root["initial_stress"], d.lattice);
+    // The corotated initial stress turns with each cell (R sigma0 R^T) and would enter every
+    // corotational force and right-hand side; not implemented yet (doc/user-guide.md "Not yet").
+    if (d.analysis.formulation == Analysis::Formulation::corotational)
+      c.fail(root["initial_stress"],
+             "initial_stress needs analysis.formulation: linear (the corotational initial "
+             "stress is not implemented yet)");
   }
   if (d.analysis.type == Analysis::Type::static_ && d.supports.empty())
     throw InputError(path, c.line(root),

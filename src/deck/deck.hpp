@@ -210,6 +210,24 @@ struct Compare {
   SourceLocation where;
 };
 
+/// An initial (residual) stress sigma0 of cells, constant in time (doc/theory.md "Initial
+/// stress"): it enters the equilibrium as -integral B^T sigma0 where the body's uncut
+/// reference state does not balance it, is released on the faces cuts open, and the
+/// stress output is sigma0 + sigma(u). Entries apply in deck order; a later one replaces
+/// an earlier one on the cells it covers.
+struct InitialStress {
+  int material = -1;  // -1: cells of every material
+  /// ParaView order xx, yy, zz, xy, yz, xz [Pa]: numbers or expressions of x, y, z,
+  /// evaluated at cell centres. Unused when `cells` is set.
+  std::array<Field, 6> value;
+  /// From an HDF5 dataset of shape (nz, ny, nx, 6) on the lattice's cells: 6 values per
+  /// lattice cell (dense, x fastest); NaN where the file gives none (such a cell keeps an
+  /// earlier entry's value; a selected cell with material must have one: checked after
+  /// voxelization). Null: `value`.
+  std::shared_ptr<const std::vector<double>> cells;
+  SourceLocation where;
+};
+
 struct Deck {
   std::string path;
   std::string text;  // verbatim, stored in the output
@@ -232,6 +250,7 @@ struct Deck {
   Solver solver;
   Output output;
   std::optional<Compare> compare;
+  std::vector<InitialStress> initial_stress;
 };
 
 /// A geometry step as the membership operations it applies (a label image: one add per

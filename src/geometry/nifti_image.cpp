@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/errors.hpp"
+#include "geometry/image_frame.hpp"
 #include "geometry/voxel_image.hpp"
 
 namespace hexcut::geometry {
@@ -63,18 +64,6 @@ VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info) {
       t[r] = A->m[r][3];
     }
   }
-  for (int c = 0; c < 3; ++c) {
-    const double len = std::sqrt(M[0][c] * M[0][c] + M[1][c] * M[1][c] + M[2][c] * M[2][c]);
-    if (!(len > 0) || !std::isfinite(len))
-      throw InputError(path + ": NIfTI " + I.transform + " has a zero or non-finite voxel size");
-    for (int r = 0; r < 3; ++r)
-      if (r != c && std::abs(M[r][c]) > 1e-6 * len)
-        throw InputError(path + ": NIfTI " + I.transform +
-                         " is oblique or permutes the axes (voxel axis " + std::to_string(c) +
-                         " has a world " + "xyz"[r] +
-                         " component); hexcut needs the image axes along x, y, z: resample it "
-                         "first (e.g. with a tool's reslice to the scanner axes)");
-  }
   double unit = 1e-3;
   switch (XYZT_TO_SPACE(nim->xyz_units)) {
     case NIFTI_UNITS_METER:
@@ -89,18 +78,12 @@ VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info) {
     default:
       I.units = "unknown (mm)";
   }
+  const auto frame = axis_aligned_frame(M, t, n, unit, path + ": NIfTI " + I.transform);
   VoxelImage image;
-  for (int a = 0; a < 3; ++a) {
-    const double m = M[a][a];
-    I.flipped[a] = m < 0;
-    image.dims[a] = int(n[a]);
-    image.spacing[a] = std::abs(m) * unit;
-    // The centre of the voxel nearest -infinity along a, less half a voxel: its corner.
-    const double first_centre = m > 0 ? t[a] : t[a] + m * double(n[a] - 1);
-    image.origin[a] = (first_centre - 0.5 * std::abs(m)) * unit;
-  }
-  if (!image.origin.allFinite())
-    throw InputError(path + ": NIfTI " + I.transform + " has a non-finite offset");
+  image.dims = frame.dims;
+  image.origin = frame.origin;
+  image.spacing = frame.spacing;
+  I.flipped = frame.flipped;
   if (nim->scl_slope != 0.0 && std::isfinite(nim->scl_slope)) {
     I.slope = nim->scl_slope;
     I.intercept = std::isfinite(nim->scl_inter) ? nim->scl_inter : 0.0;

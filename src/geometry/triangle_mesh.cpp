@@ -295,7 +295,8 @@ TriangleMesh load_triangle_mesh(const std::string& path) {
   return mesh;
 }
 
-void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translate) {
+void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translate,
+               const Eigen::Matrix3d& rotation) {
   if (!std::isfinite(scale) || scale == 0.0) {
     throw std::invalid_argument("mesh transform: scale must be finite and nonzero, got " +
                                 std::to_string(scale));
@@ -303,7 +304,13 @@ void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translat
   if (!translate.allFinite()) {
     throw std::invalid_argument("mesh transform: translation is not finite");
   }
-  for (auto& v : mesh.vertices) v = scale * v + translate;
+  if (!rotation.allFinite() ||
+      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() >
+          1e-9 ||
+      rotation.determinant() < 0.0) {
+    throw std::invalid_argument("mesh transform: the rotation is not a proper rotation matrix");
+  }
+  for (auto& v : mesh.vertices) v = rotation * (scale * v) + translate;
   if (scale < 0.0) {
     for (auto& t : mesh.triangles) std::swap(t[1], t[2]);
   }

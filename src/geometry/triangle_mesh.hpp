@@ -29,10 +29,13 @@ struct TriangleMesh {
 /// or unreadable file, bad syntax, an out-of-range index, or a mesh without triangles.
 TriangleMesh load_triangle_mesh(const std::string& path);
 
-/// v <- scale*v + translate. A negative scale mirrors the mesh; triangles are then
-/// reversed so they stay outward-oriented. Throws std::invalid_argument for scale 0 or
+/// v <- rotation (scale v) + translate: scaled about the file's origin, then turned about
+/// it, then moved. A negative scale mirrors the mesh; triangles are then reversed so they
+/// stay outward-oriented. `rotation` must be proper orthogonal (R^T R = I to 1e-9,
+/// det R = 1). Throws std::invalid_argument for scale 0, a rotation that is not one, or
 /// non-finite arguments.
-void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translate);
+void transform(TriangleMesh& mesh, double scale, const Eigen::Vector3d& translate,
+               const Eigen::Matrix3d& rotation = Eigen::Matrix3d::Identity());
 
 /// Checks what every use of a mesh relies on: each triangle's vertex indices lie in
 /// [0, vertices.size()) and every vertex is finite. Throws std::invalid_argument naming

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "common/errors.hpp"
 
@@ -158,13 +159,13 @@ VoxelImage load_raw_image(const std::string& path, const std::array<int, 3>& dim
   return image;
 }
 
-VoxelImage load_hdf5_image(const std::string& path, const std::string& dataset,
-                           const Eigen::Vector3d& origin, const Eigen::Vector3d& spacing) {
-  if (!std::ifstream(path)) throw InputError(path + ": cannot open image file");
+template <typename T>
+Hdf5Array<T> load_hdf5_array(const std::string& path, const std::string& dataset) {
+  if (!std::ifstream(path)) throw InputError(path + ": cannot open file");
   H5Quiet quiet;
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
-  // Default (serial) file access: the image is small next to the solve, and every rank
-  // reading it independently is simpler than a collective open.
+  // Default (serial) file access: input arrays are small next to the solve, and every rank
+  // reading them independently is simpler than a collective open.
   H5Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) throw InputError(path + ": cannot open HDF5 file");
   if (H5Lexists(file.get(), dataset.c_str(), H5P_DEFAULT) <= 0) {
@@ -178,27 +179,47 @@ VoxelImage load_hdf5_image(const std::string& path, const std::string& dataset,
     throw InputError(path + ": dataset '" + dataset + "' is not numeric");
   }
   H5Handle space(H5Dget_space(dset.get()), H5Sclose);
-  if (H5Sget_simple_extent_ndims(space.get()) != 3) {
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) throw InputError(path + ": cannot read the shape of dataset '" + dataset + "'");
+  Hdf5Array<T> out;
+  std::vector<hsize_t> shape(std::size_t(rank) + 1);
+  H5Sget_simple_extent_dims(space.get(), shape.data(), nullptr);
+  std::uint64_t count = 1;
+  for (int a = 0; a < rank; ++a) {
+    out.shape.push_back(std::uint64_t(shape[a]));
+    count *= std::uint64_t(shape[a]);
+  }
+  out.values.resize(count);
+  // HDF5 converts any stored integer/float type to the native type asked for on read.
+  const hid_t native = std::is_same_v<T, float> ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
+  if (count > 0 &&
+      H5Dread(dset.get(), native, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.values.data()) < 0) {
+    throw InputError(path + ": cannot read dataset '" + dataset + "'");
+  }
+  return out;
+}
+
+template Hdf5Array<float> load_hdf5_array(const std::string&, const std::string&);
+template Hdf5Array<double> load_hdf5_array(const std::string&, const std::string&);
+
+VoxelImage load_hdf5_image(const std::string& path, const std::string& dataset,
+                           const Eigen::Vector3d& origin, const Eigen::Vector3d& spacing) {
+  auto array = load_hdf5_array<float>(path, dataset);
+  if (array.shape.size() != 3) {
     throw InputError(path + ": dataset '" + dataset + "' must be 3-dimensional [nz][ny][nx]");
   }
-  hsize_t shape[3];
-  H5Sget_simple_extent_dims(space.get(), shape, nullptr);
   VoxelImage image;
   for (int a = 0; a < 3; ++a) {
-    if (shape[2 - a] == 0 || shape[2 - a] > hsize_t(std::numeric_limits<int>::max())) {
+    const std::uint64_t n = array.shape[2 - a];
+    if (n == 0 || n > std::uint64_t(std::numeric_limits<int>::max())) {
       throw InputError(path + ": dataset '" + dataset + "' has an empty or huge dimension");
     }
-    image.dims[a] = static_cast<int>(shape[2 - a]);  // [nz][ny][nx] -> (nx, ny, nz)
+    image.dims[a] = static_cast<int>(n);  // [nz][ny][nx] -> (nx, ny, nz)
   }
   check_geometry(image.dims, origin, spacing, "HDF5 image " + path);
   image.origin = origin;
   image.spacing = spacing;
-  image.values.resize(product(image.dims));
-  // HDF5 converts any stored integer/float type to native float on read.
-  if (H5Dread(dset.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, image.values.data()) <
-      0) {
-    throw InputError(path + ": cannot read dataset '" + dataset + "'");
-  }
+  image.values = std::move(array.values);
   return image;
 }
 

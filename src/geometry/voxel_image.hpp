@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,6 +36,20 @@ VoxelImage load_raw_image(const std::string& path, const std::array<int, 3>& dim
                           const Eigen::Vector3d& origin = Eigen::Vector3d::Zero(),
                           const Eigen::Vector3d& spacing = Eigen::Vector3d::Ones());
 
+/// A whole HDF5 dataset: its shape (slowest axis first, as h5py reports it) and its values in
+/// C order, converted to T (float or double) by HDF5.
+template <typename T>
+struct Hdf5Array {
+  std::vector<std::uint64_t> shape;
+  std::vector<T> values;
+};
+
+/// Reads a numeric dataset (any integer or float type, any rank) from an HDF5 file; T is
+/// float or double. Throws hexcut::InputError for a missing file or dataset, a file that
+/// is not HDF5 or a dataset that is not numeric.
+template <typename T>
+Hdf5Array<T> load_hdf5_array(const std::string& path, const std::string& dataset);
+
 /// Reads a 3D dataset of any numeric type from an HDF5 file. The dataset is stored in C
 /// order with shape [nz][ny][nx] (x fastest in memory, as numpy/h5py write a
 /// z,y,x-indexed array), so it maps onto VoxelImage::values without reordering.
@@ -60,6 +75,26 @@ struct NiftiInfo {
 /// the axes is refused, as is an image with more than one volume (4-D) or a complex or RGB
 /// type. Throws hexcut::InputError naming the file and the reason.
 VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info = nullptr);
+
+/// What load_dicom_series found besides the voxels.
+struct DicomInfo {
+  int slices = 0;
+  double slope = 1.0, intercept = 0.0;  ///< the first slice's rescale (each slice uses its own)
+  std::array<bool, 3> flipped{false, false, false};  ///< axes reversed to run along +x, +y, +z
+  std::string series_uid;
+};
+
+/// Reads a DICOM series, a folder of single-frame grey-scale slices, with GDCM. Files that
+/// are not DICOM are skipped; the folder must hold one series. The slices are sorted by
+/// their position along the normal of their plane and must form one regular volume: the
+/// same size, pixel spacing and orientation, evenly spaced (to 0.1 %), not offset across
+/// their plane (gantry tilt). Each slice's values are rescaled by its RescaleSlope and
+/// RescaleIntercept (CT: Hounsfield units), Bits Stored respected. Positions are DICOM's
+/// patient coordinates (LPS, mm) turned into NIfTI's RAS frame (x and y negated) and m, so
+/// that a series and its NIfTI conversion (dcm2niix) lie at the same place; image axes
+/// along -x, -y or -z are reversed as for NIfTI, and an oblique orientation is refused.
+/// Throws hexcut::InputError naming the folder or file and the reason.
+VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info = nullptr);
 
 /// Solid where image->sample(p) >= threshold (never outside the image).
 ShapePtr make_image_threshold(std::shared_ptr<const VoxelImage> image, double threshold);

@@ -11,6 +11,8 @@
 namespace hexcut::geometry {
 namespace {
 
+constexpr double kNoYoungs = std::numeric_limits<double>::quiet_NaN();  // VoxelGrid: material's E
+
 void check_grid(const VoxelGrid& grid) {
   if (grid.spec.h <= 0.0 || !std::isfinite(grid.spec.h)) {
     throw std::invalid_argument("voxel grid: cell size h must be positive");
@@ -109,6 +111,10 @@ void apply(VoxelGrid& grid, const GeometryOp& op) {
         std::int16_t& m = grid.material[grid.spec.cell_index(i, j, k)];
         if (op.mode == OpMode::assign && m < 0) continue;
         m = mat;
+        // The last operation on a cell decides its E: a cell this one fills, re-assigns or
+        // empties takes its material's E again, not one an earlier image gave it (an
+        // implant added after a calibrated CT image is titanium, not bone).
+        if (!grid.youngs.empty()) grid.youngs[grid.spec.cell_index(i, j, k)] = kNoYoungs;
       }
     }
   }

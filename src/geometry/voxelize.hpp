@@ -36,7 +36,9 @@ struct GeometryOp {
 };
 
 /// Applies one operation to the cells whose centre is inside op.shape. Only the cells
-/// within the shape's bounds (clipped to the lattice) are visited. Throws
+/// within the shape's bounds (clipped to the lattice) are visited. A cell the operation
+/// changes loses any Young's modulus an earlier image gave it (grid.youngs: NaN, its
+/// material's E): the last operation on a cell decides. Throws
 /// std::invalid_argument for a null shape, a material outside [0, 32767], or a grid
 /// whose material array does not match its spec.
 void apply(VoxelGrid& grid, const GeometryOp& op);

@@ -166,6 +166,16 @@ TEST(GeometryImage, ThresholdLabelsAndYoungs) {
   EXPECT_EQ(labels.youngs[spec.cell_index(2, 2, 2)], 1e9);
   EXPECT_EQ(labels.youngs[spec.cell_index(2, 2, 6)], 2e9);
   EXPECT_TRUE(std::isnan(labels.youngs[spec.cell_index(0, 5, 5)]));  // outside the image
+
+  // An implant added after the image: its cells take their material's E (NaN), the
+  // others keep the image's; an assign or a subtract does the same to the cells it changes.
+  hg::apply(labels, {hg::OpMode::add, hg::make_box(Vector3d(0, 0, 0), Vector3d(1, 1, 1)), 5});
+  EXPECT_TRUE(std::isnan(labels.youngs[spec.cell_index(2, 2, 2)]));  // centre (0.25, ...)
+  EXPECT_EQ(labels.youngs[spec.cell_index(4, 4, 4)], 1e9);           // outside the box
+  hg::apply(labels,
+            {hg::OpMode::assign, hg::make_box(Vector3d(1.5, 1.5, 2), Vector3d(2.5, 2.5, 3)), 2});
+  EXPECT_TRUE(std::isnan(labels.youngs[spec.cell_index(6, 6, 6)]));
+  EXPECT_EQ(labels.youngs[spec.cell_index(6, 6, 8)], 2e9);
 }
 
 TEST(GeometryImage, CalibrationLawsAndTheMeanPerCell) {

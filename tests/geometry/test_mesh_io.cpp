@@ -1,6 +1,7 @@
 // OBJ and STL reading: the same cube written three ways must load to the same mesh.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <cstring>
 #include <sstream>
@@ -175,4 +176,22 @@ TEST(GeometryMeshIo, TransformAndBounds) {
   EXPECT_DOUBLE_EQ(hg::enclosed_volume(m), 1.0);
   EXPECT_NEAR(hg::winding_number(m, Vector3d(-1, -1.5, -2)), 1.0, 1e-12);
   EXPECT_THROW(hg::transform(m, 0.0, Vector3d::Zero()), std::invalid_argument);
+}
+
+TEST(GeometryMeshIo, RotationTurnsAboutTheOriginBeforeTheTranslation) {
+  // The unit cube scaled by 2, turned 90 degrees about z, then moved by (10, 0, 0): its
+  // corner (2, 0, 0) goes to (10, 2, 0), the box to [8, 10] x [0, 2] x [0, 2]; the volume
+  // and the outward orientation stay (a rotation is proper). A reflection is refused.
+  hg::TriangleMesh m = hg::test::cube_mesh(0, 1);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitZ()).toRotationMatrix();
+  hg::transform(m, 2.0, Vector3d(10, 0, 0), R);
+  const auto b = hg::bounds(m);
+  EXPECT_LT((b.lo - Vector3d(8, 0, 0)).norm(), 1e-12);
+  EXPECT_LT((b.hi - Vector3d(10, 2, 2)).norm(), 1e-12);
+  EXPECT_NEAR(hg::enclosed_volume(m), 8.0, 1e-12);
+  EXPECT_NEAR(hg::winding_number(m, Vector3d(9, 1, 1)), 1.0, 1e-12);
+  Eigen::Matrix3d mirror = Eigen::Matrix3d::Identity();
+  mirror(0, 0) = -1;
+  EXPECT_THROW(hg::transform(m, 1.0, Vector3d::Zero(), mirror), std::invalid_argument);
+  EXPECT_THROW(hg::transform(m, 1.0, Vector3d::Zero(), 2.0 * R), std::invalid_argument);
 }
