@@ -420,29 +420,44 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
               "threshold", "labels", "material", "youngs_scale", "calibration"});
   if (!n["file"]) c.fail(n, "image needs 'file'");
   const std::string path = c.resolve(get_string(c, n["file"], "image.file"));
-  check_input_file(c, n["file"], path, "image.file");
-  // NIfTI files say where their voxels are: the format defaults to nifti for .nii and
-  // .nii.gz, and their spacing and origin are not deck keys.
+  // NIfTI files and DICOM series say where their voxels are: the format defaults to nifti
+  // for .nii and .nii.gz and to dicom for a folder, and their spacing and origin are not
+  // deck keys.
   auto ends_with = [&](const std::string& suffix) {
     return path.size() >= suffix.size() &&
            path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0;
   };
   const bool nii = ends_with(".nii") || ends_with(".nii.gz");
+  const bool folder = fs::is_directory(path);
   const std::string format = n["format"] ? get_string(c, n["format"], "image.format")
                              : nii       ? "nifti"
+                             : folder    ? "dicom"
                                          : "raw";
+  if (format == "dicom") {
+    if (!fs::exists(path)) c.fail(n["file"], "image.file '" + path + "' does not exist");
+    if (!folder)
+      c.fail(n["file"], "image.file '" + path +
+                            "' is not a folder: a DICOM series is read from the folder of its "
+                            "slices");
+  } else {
+    check_input_file(c, n["file"], path, "image.file");
+  }
   std::shared_ptr<geometry::VoxelImage> image;
-  if (format == "nifti") {
+  if (format == "nifti" || format == "dicom") {
     for (const char* key : {"spacing", "origin", "dims", "dtype", "endian", "dataset"})
       if (n[key])
-        c.fail(n[key], std::string("image.") + key +
-                           " is not used for a NIfTI image: its header gives the voxels, "
-                           "their size and position");
+        c.fail(n[key], std::string("image.") + key + " is not used for a " +
+                           (format == "nifti" ? "NIfTI image" : "DICOM series") +
+                           ": its header gives the voxels, their size and position");
     try {
-      geometry::NiftiInfo info;
-      image = std::make_shared<geometry::VoxelImage>(geometry::load_nifti_image(path, &info));
-      if (info.units == "unknown (mm)")
-        c.warn(n["file"], "the NIfTI header gives no spatial unit: taken as mm");
+      if (format == "nifti") {
+        geometry::NiftiInfo info;
+        image = std::make_shared<geometry::VoxelImage>(geometry::load_nifti_image(path, &info));
+        if (info.units == "unknown (mm)")
+          c.warn(n["file"], "the NIfTI header gives no spatial unit: taken as mm");
+      } else {
+        image = std::make_shared<geometry::VoxelImage>(geometry::load_dicom_series(path));
+      }
     } catch (const InputError& e) {
       c.fail(n["file"], std::string("cannot load image: ") + e.what());
     }
@@ -465,7 +480,7 @@ GeometryStep parse_image_step(const Context& c, const YAML::Node& n) {
         image = std::make_shared<geometry::VoxelImage>(geometry::load_hdf5_image(
             path, get_string(c, n["dataset"], "image.dataset"), origin, spacing));
       } else {
-        c.fail(n["format"], "image.format must be 'raw', 'hdf5' or 'nifti'");
+        c.fail(n["format"], "image.format must be 'raw', 'hdf5', 'nifti' or 'dicom'");
       }
     } catch (const InputError& e) {
       c.fail(n["file"], std::string("cannot load image: ") + e.what());

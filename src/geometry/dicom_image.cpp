@@ -4,8 +4,10 @@
 // places it on VoxelImage's grid in the RAS frame NIfTI uses (doc/user-guide.md, "Images").
 #include <gdcmDirectory.h>
 #include <gdcmImage.h>
+#include <gdcmImageHelper.h>
 #include <gdcmImageReader.h>
 #include <gdcmScanner.h>
+#include <gdcmTrace.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -82,9 +84,13 @@ Slice read_slice(const std::string& file) {
                      "; hexcut reads grey-scale MONOCHROME2 slices (CT, MR)");
   Slice s;
   s.file = file;
-  const double* o = image.GetOrigin();
-  const double* c = image.GetDirectionCosines();
+  // Position and orientation from the tags themselves: gdcm::Image keeps only as many
+  // origin components as the image has dimensions (2 for a slice).
+  const std::vector<double> o = gdcm::ImageHelper::GetOriginValue(reader.GetFile());
+  const std::vector<double> c = gdcm::ImageHelper::GetDirectionCosinesValue(reader.GetFile());
   const double* h = image.GetSpacing();
+  if (o.size() < 3 || c.size() < 6)
+    throw InputError(file + ": DICOM image position or orientation is missing");
   s.position = Eigen::Vector3d(o[0], o[1], o[2]);
   s.row = Eigen::Vector3d(c[0], c[1], c[2]);
   s.column = Eigen::Vector3d(c[3], c[4], c[5]);
@@ -134,6 +140,7 @@ VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info) {
   namespace fs = std::filesystem;
   if (!fs::is_directory(directory))
     throw InputError(directory + ": a DICOM series is read from a folder of slices");
+  gdcm::Trace::WarningOff();  // GDCM's warnings go to stderr; hexcut reports its own errors
   gdcm::Directory dir;
   dir.Load(directory, false);
   const auto& files = dir.GetFilenames();
@@ -198,7 +205,7 @@ VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info) {
   if (slices.size() == 1) dz = first.spacing[0];  // one slice: a layer as thick as it is wide
 
   // Voxel centre (i, j, k) in DICOM's patient frame (LPS, mm): P0 + i dx r + j dy c + k dz n.
-  // RAS (NIfTI's frame, x to the patient's right... left-to-right negated) flips x and y.
+  // NIfTI's RAS frame (+x towards the patient's right, +y anterior) negates LPS's x and y.
   const double ras[3] = {-1.0, -1.0, 1.0};
   double M[3][3], t[3];
   for (int r = 0; r < 3; ++r) {
