@@ -176,18 +176,27 @@ Boundary resolve_boundary(MPI_Comm comm, const deck::Deck& deck, const lattice::
 
   // Loaded faces: boundary faces of local cells (no linked neighbour across them).
   for (const auto& t : deck.tractions) {
+    const std::size_t begin = B.faces.size();
     const auto hits = select_faces(L, D, t.selector, [&](Boundary::Face f) {
       f.traction = &t;
       B.faces.push_back(f);
     });
-    if (global_sum(comm, hits) == 0)
+    const auto all = global_sum(comm, hits);
+    if (all == 0)
       throw InputError(t.selector.where.prefix() +
                        "this traction selects no boundary face of the body");
+    // A total force is spread over the selected faces' reference area: F / (n h^2).
+    const Eigen::Vector3d density =
+        t.force ? Eigen::Vector3d(*t.force / (double(all) * L.spec.h * L.spec.h))
+                : Eigen::Vector3d(t.value[0].function.value, t.value[1].function.value,
+                                  t.value[2].function.value);
+    for (std::size_t i = begin; i < B.faces.size(); ++i) B.faces[i].density = density;
     B.face_expressions = B.face_expressions || uses_expressions(t.value);
   }
   for (const auto& p : deck.pressures) {
     const auto hits = select_faces(L, D, p.selector, [&](Boundary::Face f) {
       f.pressure = &p;
+      f.density[f.axis] = f.side ? -p.value.function.value : p.value.function.value;
       B.faces.push_back(f);
     });
     if (global_sum(comm, hits) == 0)
@@ -281,16 +290,7 @@ PetscErrorCode assemble_loads(DM dm, const topology::DofLayout& D, const CellDat
     std::array<Eigen::Vector3d, 4> load;
     if (face.kind == Kind::uniform) {
       // A constant traction on a bilinear face gives t h^2 / 4 at each face corner.
-      Eigen::Vector3d density;
-      if (face.traction) {
-        const auto& v = face.traction->value;
-        density = {v[0].function.value, v[1].function.value, v[2].function.value};
-      } else {
-        density.setZero();
-        density[face.axis] =
-            face.side ? -face.pressure->value.function.value : face.pressure->value.function.value;
-      }
-      load.fill(density * tf * (scale * C.h * C.h / 4.0));
+      load.fill(face.density * tf * (scale * C.h * C.h / 4.0));
     } else {
       load = face.kind == Kind::fixed_in_time ? face.nodal : varying[next_varying++];
       for (auto& v : load) v *= tf * scale;

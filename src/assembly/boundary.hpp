@@ -38,6 +38,9 @@ struct Boundary {
     const deck::Pressure* pressure = nullptr;
     enum class Kind { uniform, fixed_in_time, varying };
     Kind kind = Kind::uniform;  // uniform: no expression; else expressions without / with t
+    /// uniform: the load per reference area [Pa] (a traction's value, -p n for a pressure,
+    /// a traction's force / the area of its faces), without `scale`.
+    Eigen::Vector3d density{0, 0, 0};
     std::array<Eigen::Vector3d, 4> nodal;  // fixed_in_time: the consistent loads [N] (no scale)
   };
   std::vector<Face> faces;

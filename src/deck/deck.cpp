@@ -703,11 +703,20 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
   if (n["traction"]) {
     if (!n["traction"].IsSequence()) c.fail(n["traction"], "boundary.traction must be a list");
     for (const auto& t : n["traction"]) {
-      check_keys(c, t, "traction", {"where", "value", "scale"});
-      if (!t["where"] || !t["value"]) c.fail(t, "traction needs 'where' and 'value' [Pa]");
+      check_keys(c, t, "traction", {"where", "value", "force", "scale"});
+      if (!t["where"] || (!t["value"] && !t["force"]))
+        c.fail(t, "traction needs 'where' and 'value' [Pa] or 'force' [N]");
+      if (t["value"] && t["force"])
+        c.fail(t["force"], "traction: give either 'value' (force per area, Pa) or 'force' (the "
+                           "total force, N), not both");
       Traction tr;
       tr.selector = parse_selector(c, t["where"], "traction.where");
-      tr.value = parse_field3(c, t["value"], "traction.value");
+      if (t["value"]) {
+        tr.value = parse_field3(c, t["value"], "traction.value");
+      } else {
+        tr.force = get_vec3(c, t["force"], "traction.force");
+        if (!tr.force->allFinite()) c.fail(t["force"], "traction.force must be finite");
+      }
       tr.scale.value = 1.0;
       if (t["scale"]) tr.scale = parse_time_function(c, t["scale"], "traction.scale");
       d.tractions.push_back(tr);

@@ -89,6 +89,9 @@ struct Support {  // fixed or prescribed displacement
 struct Traction {
   Selector selector;
   std::array<Field, 3> value;  // [Pa], force per reference area (constants or expressions)
+  /// Instead of `value`: the total force [N], spread as a uniform traction over the
+  /// reference area of the faces the selector selects (a joint or muscle force).
+  std::optional<Eigen::Vector3d> force;
   TimeFunction scale;          // multiplies value; default constant 1
 };
 

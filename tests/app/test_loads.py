@@ -2,7 +2,9 @@
 pressure runs on 1 and 2 ranks and matches Lamé; every kind of expression error gives
 'deck.yaml:LINE: expression error: ...' and exit 2 at --check; an expression that is not
 finite where it is used stops the run with exit 2 naming its line (also on 2 ranks, where
-only one rank meets the bad value)."""
+only one rank meets the bad value); a traction given as a total force is that force spread
+over the selected faces' area (the same displacements as the traction F / A, on 1 and 2
+ranks)."""
 import sys
 
 import h5py
@@ -133,6 +135,36 @@ def main():
             rc, out, err = run([path], ranks=ranks)
             bad = rc == 2 and message in err and any(f"is {v} at" in err for v in ("inf", "-inf", "nan"))
             check(bad and "step 2/5" in out and "step 3/5" not in out, f"{name}: exit {rc}: {err.strip()[-400:]}")
+
+    # traction.force: a total force over the selected faces (here the end face 0.2 x 0.2 m
+    # and, with a box selector, the upper half of it) = the traction F / A on those faces.
+    from cli_helpers import BEAM
+    force = [300.0, -200.0, -1000.0]
+    runs = {}
+    for name, where, load in (
+            ("value", "{plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}", f"value: {[f / 0.04 for f in force]}"),
+            ("force", "{plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}", f"force: {force}"),
+            ("half_value", "{box: {min: [0.99, -1, 0.1], max: [1.01, 1, 1]}}", f"value: {[f / 0.02 for f in force]}"),
+            ("half_force", "{box: {min: [0.99, -1, 0.1], max: [1.01, 1, 1]}}", f"force: {force}")):
+        text = BEAM.replace("{plane: {point: [1.0, 0, 0], normal: [1, 0, 0]}}\n      value: [0, 0, -1000.0]",
+                            f"{where}\n      {load}")
+        assert text != BEAM
+        for ranks in (1, 2):
+            path = write(d, f"{name}{ranks}.yaml", text + f"output: {{directory: {d}/{name}{ranks}}}\n")
+            rc, out, err = run([path], ranks=ranks)
+            check(rc == 0, f"traction {name} on {ranks} rank(s): exit {rc} {err.strip()[-300:]}")
+            if rc == 0:
+                with h5py.File(f"{d}/{name}{ranks}/{name}{ranks}.h5") as f:
+                    runs[name, ranks] = f["steps/" + sorted(f["steps"].keys())[-1] + "/displacement"][()]
+    for a, b in (("value", "force"), ("half_value", "half_force")):
+        if all((k, r) in runs for k in (a, b) for r in (1, 2)):
+            ref = np.abs(runs[a, 1]).max()
+            diff = max(np.abs(runs[b, r] - runs[a, 1]).max() for r in (1, 2))
+            check(diff <= 1e-9 * ref, f"traction force {force} N over {b}'s faces = traction F / A: "
+                  f"max |du| = {diff:.3g} m (of {ref:.3g}) on 1 and 2 ranks")
+    both = BEAM.replace("value: [0, 0, -1000.0]", "value: [0, 0, -1000.0]\n      force: [0, 0, 1]")
+    rc, out, err = run(["--check", write(d, "both.yaml", both)])
+    check(rc == 2 and "both.yaml:12:" in err and "not both" in err, f"traction with value and force: exit {rc}: {err.strip()}")
     return check.finish()
 
 
