@@ -24,7 +24,7 @@ AXES = {"x": 0, "y": 1, "z": 2}
 LABELS = {
     "von_mises": "von Mises [Pa]",
     "von_mises_change": "change of von Mises [Pa]",
-    "stress_shielding": "stress shielding (W_ref - W) / W_ref",
+    "stress_shielding": "stress shielding (W_ref - W) / W_ref, clipped to [-1, 1]",
     "strain_energy_density": "strain-energy density [J/m^3]",
     "strain_energy_density_change": "change of strain-energy density [J/m^3]",
     "stress_difference_norm": "|sigma - sigma_ref| [Pa]",
@@ -119,7 +119,11 @@ def main(argv=None):
     names = "xyz"
     for ax, (name, img, d) in zip(axes[0], panels):
         finite = img[np.isfinite(img)]
-        if (name in DIVERGING or d is not None) and finite.size:
+        if name == "stress_shielding":
+            # A relative loss: 1 is fully shielded, -1 twice the reference's energy; beyond
+            # that (cells the reference barely loaded) the colour saturates.
+            kw = dict(cmap="coolwarm", vmin=-1.0, vmax=1.0)
+        elif (name in DIVERGING or d is not None) and finite.size:
             m = float(np.max(np.abs(finite))) or 1.0
             kw = dict(cmap="coolwarm", vmin=-m, vmax=m)
         else:

@@ -18,10 +18,15 @@ namespace {
 /// line with the number of such cells. Filled cells inside an image whose voxel is NaN
 /// keep their material's E: reported as a warning with the count.
 void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
+                        const std::vector<std::int32_t>& touched,
                         std::vector<std::string>* warnings) {
   std::vector<const deck::GeometryStep*> images;
-  for (const auto& step : deck.geometry)
-    if (step.kind == deck::GeometryStep::Kind::image_youngs) images.push_back(&step);
+  std::vector<std::int32_t> image_step;  // per image: its position in deck.geometry
+  for (std::size_t s = 0; s < deck.geometry.size(); ++s)
+    if (deck.geometry[s].kind == deck::GeometryStep::Kind::image_youngs) {
+      images.push_back(&deck.geometry[s]);
+      image_step.push_back(std::int32_t(s));
+    }
   if (images.empty() || grid.youngs.empty()) return;
   struct Tally {
     std::int64_t bad = 0, nan = 0;
@@ -43,6 +48,8 @@ void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
           const bool inside =
               ((x - box.lo).array() >= 0.0).all() && ((x - box.hi).array() < 0.0).all();
           if (inside || !std::isnan(v)) {
+            // A later operation that changed the cell decided its E (its material's).
+            if (!touched.empty() && touched[c] > image_step[s]) break;
             auto& t = tally[s];
             // A calibrated image averages the voxels in the cell: what counts is the E it
             // gave the cell (NaN: none of its voxels had data), not the centre voxel.
@@ -81,19 +88,25 @@ void check_image_youngs(const deck::Deck& deck, const geometry::VoxelGrid& grid,
 
 lattice::Lattice build_lattice(const deck::Deck& deck, std::vector<std::string>* warnings) {
   auto grid = geometry::make_empty_grid(deck.lattice);
-  for (const auto& step : deck.geometry) {
+  // Per cell the last geometry step that changed it (-1: none), once an image sets E: the
+  // check below skips cells whose E a later operation reset.
+  std::vector<std::int32_t> touched;
+  for (std::size_t s = 0; s < deck.geometry.size(); ++s) {
+    const auto& step = deck.geometry[s];
     if (step.kind == deck::GeometryStep::Kind::image_youngs) {
       if (step.calibration)
         geometry::apply_image_calibrated_youngs(grid, *step.image, *step.calibration);
       else
         geometry::apply_image_youngs(grid, *step.image, step.youngs_scale);
+      if (touched.empty()) touched.assign(grid.material.size(), -1);
     }
-    for (const auto& op : deck::membership_ops(step)) geometry::apply(grid, op);
+    for (const auto& op : deck::membership_ops(step))
+      geometry::apply(grid, op, touched.empty() ? nullptr : &touched, std::int32_t(s));
   }
   if (geometry::count_filled(grid) == 0)
     throw InputError(deck.geometry.front().where.prefix() +
                      "the geometry is empty: no cell centre of the lattice lies inside the body");
-  check_image_youngs(deck, grid, warnings);
+  check_image_youngs(deck, grid, touched, warnings);
   std::vector<lattice::MaterialProperties> props;
   for (const auto& m : deck.materials)
     props.push_back({m.youngs_modulus, m.poisson_ratio, m.density});

@@ -94,7 +94,8 @@ VoxelGrid make_empty_grid(const LatticeSpec& spec) {
   return grid;
 }
 
-void apply(VoxelGrid& grid, const GeometryOp& op) {
+void apply(VoxelGrid& grid, const GeometryOp& op, std::vector<std::int32_t>* touched,
+           std::int32_t tag) {
   check_grid(grid);
   if (!op.shape) throw std::invalid_argument("geometry op: null shape");
   const std::int16_t mat =
@@ -114,7 +115,9 @@ void apply(VoxelGrid& grid, const GeometryOp& op) {
         // The last operation on a cell decides its E: a cell this one fills, re-assigns or
         // empties takes its material's E again, not one an earlier image gave it (an
         // implant added after a calibrated CT image is titanium, not bone).
-        if (!grid.youngs.empty()) grid.youngs[grid.spec.cell_index(i, j, k)] = kNoYoungs;
+        const auto idx = grid.spec.cell_index(i, j, k);
+        if (!grid.youngs.empty()) grid.youngs[idx] = kNoYoungs;
+        if (touched) (*touched)[idx] = tag;
       }
     }
   }

@@ -41,7 +41,9 @@ struct GeometryOp {
 /// material's E): the last operation on a cell decides. Throws
 /// std::invalid_argument for a null shape, a material outside [0, 32767], or a grid
 /// whose material array does not match its spec.
-void apply(VoxelGrid& grid, const GeometryOp& op);
+/// `touched` (optional, dense like grid.material): set to `tag` in every cell changed.
+void apply(VoxelGrid& grid, const GeometryOp& op, std::vector<std::int32_t>* touched = nullptr,
+           std::int32_t tag = 0);
 
 /// Label map: every cell whose centre samples a label listed in label_to_material gets
 /// that material (an add); other cells are untouched. Labels are rounded to integers.

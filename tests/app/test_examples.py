@@ -139,6 +139,29 @@ def main():
           f"and 2 in the surface, the plug falls ({fall} m; a damped free fall: 0.0276 to "
           f"0.0309 m), each composite_element in one 4^3 block{elements if ok else ''}: "
           f"{err.strip()[-300:]}")
+    # femur_implant: the intact bone, then the stem compared with it (its reference path is
+    # relative to the deck's folder, so the folder is copied under the run's directory). The
+    # stem shields the proximal cortex beside it (median stress_shielding > 0.5 in the
+    # medial cortex x < 64 mm, z 90-140 mm) and leaves the shaft below its tip loaded as
+    # before (|median| < 0.3 below z = 50 mm).
+    import shutil
+    femur = os.path.join(d, "input", "examples", "femur_implant")
+    shutil.copytree(os.path.join(SOURCE, "input", "examples", "femur_implant"), femur)
+    rc1, out1, err1 = run([os.path.join(femur, "intact.yaml")], cwd=d)
+    rc2, out2, err2 = run([os.path.join(femur, "stem.yaml")], cwd=d)
+    ok = rc1 == 0 and rc2 == 0 and "compare step 1 (reference step 1): bone:" in out2 and "warning" not in err2
+    medial = distal = float("nan")
+    if ok:
+        with h5py.File(f"{d}/results/femur_stem.h5", "r") as f:
+            c = f["mesh/points"][()][f["mesh/cells"][()]].mean(axis=1)
+            bone = f["mesh/cell_material"][()] == 0
+            sh = f["steps/000001/stress_shielding"][()]
+        have = bone & np.isfinite(sh)
+        medial = np.median(sh[have & (c[:, 0] < 0.064) & (c[:, 2] > 0.09) & (c[:, 2] < 0.14)])
+        distal = np.median(sh[have & (c[:, 2] < 0.05)])
+        ok = medial > 0.5 and abs(distal) < 0.3
+    check(ok, f"femur_implant: the stem shields the proximal-medial cortex (median shielding {medial:.2f}), "
+          f"not the shaft below it ({distal:.2f}): {err1.strip()[-200:]} {err2.strip()[-200:]}")
     return check.finish()
 
 
