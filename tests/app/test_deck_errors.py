@@ -39,9 +39,15 @@ CASES = [
      "nowhere.obj' does not exist"),
     ("mesh file is a directory", "add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}", "add: {mesh: {file: .}}", 5,
      "is a directory, not a file"),
-    ("image file is a directory", "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
-     "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}\n  - image: {file: ., dims: [1, 1, 1], dtype: uint8, "
-     "spacing: [1, 1, 1], youngs_scale: 1}", 6, "is a directory, not a file"),
+    ("raw image file is a directory", "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
+     "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}\n  - image: {file: ., format: raw, dims: [1, 1, 1], "
+     "dtype: uint8, spacing: [1, 1, 1], youngs_scale: 1}", 6, "is a directory, not a file"),
+    ("a folder is a DICOM series: no spacing", "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
+     "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}\n  - image: {file: ., spacing: [1, 1, 1], "
+     "youngs_scale: 1}", 6, "image.spacing is not used for a DICOM series"),
+    ("a folder without DICOM files", "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}",
+     "  - add: {box: {min: [0, 0, 0], max: [1.0, 0.2, 0.2]}}\n  - image: {file: ., youngs_scale: 1}", 6,
+     "cannot load image"),
     ("duplicate key in a map", "h: 0.1, dims", "h: 0.1, h: 0.2, dims", 1, "duplicate key 'h' (first given on line 1)"),
     ("duplicate section", "solver: {type: direct}", "solver: {type: direct}\nsolver: {type: gmg}", 13,
      "duplicate key 'solver' (first given on line 12)"),
