@@ -72,6 +72,16 @@ topology::CellGraph coarsen(const topology::CellGraph& fine, Coarsening mode,
   return coarse;
 }
 
+double duplication(const topology::CellGraph& g) {
+  if (g.num_cells() == 0) return 0.0;
+  std::vector<std::int64_t> at(std::size_t(g.num_cells()));
+  for (std::int32_t c = 0; c < g.num_cells(); ++c)
+    at[std::size_t(c)] = g.spec.cell_index(g.ijk[c][0], g.ijk[c][1], g.ijk[c][2]);
+  std::sort(at.begin(), at.end());
+  const auto positions = std::unique(at.begin(), at.end()) - at.begin();
+  return double(g.num_cells()) / double(positions) - 1.0;
+}
+
 std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
                                    const topology::VertexCopies& copies,
                                    const topology::Partition& partition,
@@ -92,6 +102,11 @@ std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
     Level c;
     c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
     if (opt.levels == 0 && enough && c.graph.num_cells() == f.graph.num_cells()) break;
+    // Two levels at least: one level is a direct solve of the fine system.
+    if (opt.levels == 0 && enough && levels.size() >= 2 && opt.max_duplication >= 0 &&
+        3 * std::int64_t(f.copies.num_copies) <= opt.duplication_dofs &&
+        duplication(c.graph) > opt.max_duplication)
+      break;
     c.copies = topology::build_vertex_copies(c.graph);
     c.partition.num_ranks = partition.num_ranks;
     c.partition.superblock = std::max(1, f.partition.superblock / 2);

@@ -40,12 +40,24 @@ struct HierarchyOptions {
   std::int64_t coarse_dofs = 3000;  // automatic: stop once a level has at most this many DOFs
   Coarsening mode = Coarsening::components;
   int min_levels = 1;  // automatic: at least this many (a composite level l needs l + 1)
+  // automatic: stop before a level whose duplication (duplication()) exceeds this: its coarse
+  // cells have outgrown the pieces cuts or thin walls leave (doc/theory.md, "Coarse spaces
+  // after cuts"); never below two levels, and only when the level it stops at (the coarsest,
+  // factored) has at most duplication_dofs DOFs. < 0: no such stop.
+  double max_duplication = 0.5;
+  std::int64_t duplication_dofs = 100000;
 };
+
+/// Coarse cells per occupied position, less one: 0 when every block of the level holds one
+/// piece, 1 when on average each holds two. Pieces thinner than the level's cells (between
+/// blades, in thin walls) make it grow; smooth boundaries do not.
+double duplication(const topology::CellGraph& graph);
 
 /// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and DOF
 /// layout (the layout of `rank`).
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
-/// coarsening no longer reduces the cell count, and never exceeds
+/// coarsening no longer reduces the cell count, or before a level whose duplication
+/// exceeds max_duplication (when >= 0), and never exceeds
 /// log2(partition.superblock) + 1 levels; it builds at least min_levels (if the cap allows).
 std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
                                    const topology::VertexCopies& copies,

@@ -69,6 +69,17 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
     PetscCheck(n >= 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_coarse_dofs must be >= 3");
     o.hierarchy.coarse_dofs = n;
   }
+  PetscCall(PetscOptionsReal("-gmg_max_duplication",
+                             "Automatic depth: stop before a level with more than this many "
+                             "extra coarse cells per occupied position (pieces thinner than "
+                             "its cells; < 0: off)",
+                             "", o.hierarchy.max_duplication, &w, &set));
+  if (set) o.hierarchy.max_duplication = w;
+  PetscCall(PetscOptionsInt("-gmg_duplication_dofs",
+                            "The -gmg_max_duplication stop applies only where the level it "
+                            "stops at has at most this many DOFs (it is factored)",
+                            "", PetscInt(o.hierarchy.duplication_dofs), &n, &set));
+  if (set) o.hierarchy.duplication_dofs = n;
   choice = o.hierarchy.mode == hierarchy::Coarsening::naive ? 1 : 0;
   PetscCall(PetscOptionsEList("-gmg_hierarchy",
                               "Coarsening: components (pieces of a 2x2x2 block get their own "

@@ -758,6 +758,8 @@ struct SolveResult {
   PetscInt iterations = 0;
   std::vector<double> u;
   Mat coarsest = nullptr;
+  int levels = 0;
+  std::vector<double> duplication;  // per level (hierarchy::duplication)
 };
 SolveResult solve_static(const std::string& yaml, const char* options, bool cut = false) {
   Job job(PETSC_COMM_WORLD, yaml, 8, options);
@@ -769,6 +771,9 @@ SolveResult solve_static(const std::string& yaml, const char* options, bool cut 
   KSPGetIterationNumber(job.sim->ksp(), &s.iterations);
   s.u = job.canonical(job.state.u);
   MatDuplicate(job.sim->multigrid()->coarsest_matrix(), MAT_COPY_VALUES, &s.coarsest);
+  s.levels = job.sim->multigrid()->num_levels();
+  for (int l = 0; l < s.levels; ++l)
+    s.duplication.push_back(hexcut::hierarchy::duplication(job.sim->multigrid()->level(l).graph));
   return s;
 }
 
@@ -855,17 +860,20 @@ std::string blade_grid_cube(bool cuts, double angle_deg) {
 }
 
 TEST(Multigrid, SmoothedInterpolationKeepsCutBladeGridsWithinOneAndAHalfTimesTheUncutCube) {
-  // Issue 10's goal on the blade grids: CG iterations <= 1.5 x the uncut cube's. The W-cycle
-  // with trilinear interpolation misses it (16 and 15 against 8, measured), the W-cycle with
-  // the smoothed transfer to level 1 meets it (10 and 10); the solutions agree.
-  auto uncut = solve_static(blade_grid_cube(false, 0), "-gmg_cycle w");
-  auto uncut_s =
-      solve_static(blade_grid_cube(false, 0), "-gmg_cycle w -gmg_interpolation smoothed");
+  // Issue 10's goal on the blade grids: CG iterations <= 1.5 x the uncut cube's. At the full
+  // depth (the duplication rule off) the W-cycle with trilinear interpolation misses it (16
+  // and 15 against 8, measured), the W-cycle with the smoothed transfer to level 1 meets it
+  // (10 and 10); the solutions agree.
+  const char* full = "-gmg_cycle w -gmg_max_duplication -1";
+  auto uncut = solve_static(blade_grid_cube(false, 0), full);
+  auto uncut_s = solve_static(blade_grid_cube(false, 0),
+                              "-gmg_cycle w -gmg_max_duplication -1 -gmg_interpolation smoothed");
   EXPECT_EQ(uncut_s.iterations, uncut.iterations) << "no irregular coarse cell: nothing changes";
   for (double angle : {0.0, 20.0}) {
-    auto tri = solve_static(blade_grid_cube(true, angle), "-gmg_cycle w", true);
-    auto sm = solve_static(blade_grid_cube(true, angle), "-gmg_cycle w -gmg_interpolation smoothed",
-                           true);
+    auto tri = solve_static(blade_grid_cube(true, angle), full, true);
+    auto sm =
+        solve_static(blade_grid_cube(true, angle),
+                     "-gmg_cycle w -gmg_max_duplication -1 -gmg_interpolation smoothed", true);
     double du = 0, nu = 0;
     for (std::size_t i = 0; i < tri.u.size(); ++i)
       du = std::max(du, std::abs(tri.u[i] - sm.u[i])), nu = std::max(nu, std::abs(tri.u[i]));
@@ -881,6 +889,42 @@ TEST(Multigrid, SmoothedInterpolationKeepsCutBladeGridsWithinOneAndAHalfTimesThe
   }
   MatDestroy(&uncut.coarsest);
   MatDestroy(&uncut_s.coarsest);
+}
+
+TEST(Multigrid, DuplicationRuleStopsWhereCoarseCellsOutgrowThePieces) {
+  // The automatic depth's duplication stop (hierarchy::duplication: coarse cells per occupied
+  // block, less one): 0 on every level of the solid cube, which keeps its depth; on the
+  // 3-cell blade grids it passes level 1 (2-cell cells, narrower than the pieces) and stops
+  // before level 2 (> 0.5: seen with the rule off), and the CG iterations drop from the full
+  // depth's 16 and 15 to 12 and 13 (measured at 16^3, against the solid cube's 8: 1.5x and
+  // 1.6x; issue 10's 1.5x is met on the aligned grid only). The solutions agree.
+  auto uncut = solve_static(blade_grid_cube(false, 0), nullptr);
+  auto uncut_full = solve_static(blade_grid_cube(false, 0), "-gmg_max_duplication -1");
+  EXPECT_EQ(uncut.levels, uncut_full.levels);
+  for (double d : uncut_full.duplication) EXPECT_EQ(d, 0.0);
+  for (double angle : {0.0, 20.0}) {
+    auto rule = solve_static(blade_grid_cube(true, angle), nullptr, true);
+    auto full = solve_static(blade_grid_cube(true, angle), "-gmg_max_duplication -1", true);
+    ASSERT_GE(full.levels, 3);
+    std::printf("blades turned %.0f deg: duplication per level", angle);
+    for (double d : full.duplication) std::printf(" %.2f", d);
+    std::printf("; levels %d (rule) / %d (full); iterations %d / %d, uncut %d\n", rule.levels,
+                full.levels, int(rule.iterations), int(full.iterations), int(uncut.iterations));
+    EXPECT_LE(full.duplication[1], 0.5);
+    EXPECT_GT(full.duplication[2], 0.5);
+    EXPECT_EQ(rule.levels, 2);
+    EXPECT_LE(rule.iterations, (angle == 0 ? 1.5 : 1.65) * double(uncut.iterations)) << angle;
+    EXPECT_LE(rule.iterations, full.iterations - 2) << angle;
+    EXPECT_GT(full.iterations, 1.5 * double(uncut.iterations)) << "the case is hard";
+    double du = 0, nu = 0;
+    for (std::size_t i = 0; i < rule.u.size(); ++i)
+      du = std::max(du, std::abs(rule.u[i] - full.u[i])), nu = std::max(nu, std::abs(rule.u[i]));
+    EXPECT_LT(du / nu, 1e-6);
+    MatDestroy(&rule.coarsest);
+    MatDestroy(&full.coarsest);
+  }
+  MatDestroy(&uncut.coarsest);
+  MatDestroy(&uncut_full.coarsest);
 }
 
 TEST(Multigrid, BarsTouchingAlongAnEdgeConvergeLikeOneBar) {
