@@ -45,7 +45,7 @@ struct HierarchyOptions {
   // after cuts"); never below two levels, and only when the level it stops at (the coarsest,
   // factored) has at most duplication_dofs DOFs. < 0: no such stop.
   double max_duplication = 0.5;
-  std::int64_t duplication_dofs = 100000;
+  std::int64_t duplication_dofs = 150000;
 };
 
 /// Coarse cells per occupied position, less one: 0 when every block of the level holds one
