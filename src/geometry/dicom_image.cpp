@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -155,6 +156,8 @@ VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info) {
       const char* uid = scanner.GetValue(f.c_str(), kSeriesUid);
       series[uid ? uid : ""].push_back(f);
     }
+  // DICOM files without a series UID (a DICOMDIR, a structured report) are no slices of one.
+  if (series.size() > 1) series.erase("");
   if (series.empty()) throw InputError(directory + ": the folder holds no DICOM files");
   if (series.size() > 1) {
     std::string list;
@@ -181,12 +184,15 @@ VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info) {
   std::sort(slices.begin(), slices.end(), [&](const Slice& a, const Slice& b) {
     return a.position.dot(normal) < b.position.dot(normal);
   });
-  double dz = 0.0;
-  if (slices.size() > 1) {
-    dz = (slices[1].position - slices[0].position).dot(normal);
-    if (!(dz > 0))
-      throw InputError(slices[1].file + ": two slices of the series lie at the same position (" +
-                       slices[0].file + ")");
+  // The slice spacing is the smallest step: a missing slice makes one step larger, wherever
+  // it is, and the error names the pair around it.
+  double dz = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 1; k < slices.size(); ++k) {
+    const double along = (slices[k].position - slices[k - 1].position).dot(normal);
+    if (!(along > 0))
+      throw InputError(slices[k].file + ": two slices of the series lie at the same position (" +
+                       slices[k - 1].file + ")");
+    dz = std::min(dz, along);
   }
   for (std::size_t k = 1; k < slices.size(); ++k) {
     const Eigen::Vector3d step = slices[k].position - slices[k - 1].position;

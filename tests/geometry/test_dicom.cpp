@@ -7,6 +7,7 @@
 #include <gdcmImageWriter.h>
 #include <gdcmMediaStorage.h>
 #include <gdcmTrace.h>
+#include <gdcmWriter.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -119,6 +120,24 @@ TEST(GeometryDicom, MatchesTheSamePhantomGivenAsRaw) {
   const Series s;
   const std::string folder = write_series(dir, "ct", s);
   dir.write("ct/README.txt", "not a DICOM file\n");  // skipped
+  {  // a DICOM file of no series (as a DICOMDIR is): skipped
+    gdcm::Writer w;
+    gdcm::DataSet& ds = w.GetFile().GetDataSet();
+    const char* sop = "1.2.840.10008.1.3.10";  // Media Storage Directory Storage
+    gdcm::DataElement klass(gdcm::Tag(0x0008, 0x0016));
+    klass.SetByteValue(sop, std::uint32_t(std::strlen(sop)));
+    klass.SetVR(gdcm::Attribute<0x0008, 0x0016>::GetVR());
+    ds.Replace(klass);
+    gdcm::Attribute<0x0004, 0x1130> fileset;
+    fileset.SetValue("HEXCUT");
+    ds.Replace(fileset.GetAsDataElement());
+    gdcm::Attribute<0x0008, 0x0018> instance;  // SOP Instance UID, for the file meta header
+    instance.SetValue("1.2.826.0.1.3680043.2.1125.9");
+    ds.Replace(instance.GetAsDataElement());
+    w.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+    w.SetFileName(dir.file("ct/DICOMDIR").c_str());
+    ASSERT_TRUE(w.Write());
+  }
   hg::DicomInfo info;
   const auto img = hg::load_dicom_series(folder, &info);
   EXPECT_EQ(info.slices, kNz);
@@ -176,10 +195,15 @@ TEST(GeometryDicom, RefusesWhatIsNotOneRegularAxisAlignedVolume) {
   oblique.row = Vector3d(c, s, 0);
   oblique.column = Vector3d(-s, c, 0);
   EXPECT_NE(error_of(write_series(dir, "oblique", oblique)).find("oblique"), std::string::npos);
-  Series gap;
-  gap.skip = {2};
-  const std::string g = error_of(write_series(dir, "gap", gap));
-  EXPECT_NE(g.find("not evenly spaced"), std::string::npos) << g;
+  for (int missing : {1, 2}) {  // a missing slice anywhere, also right after the first
+    Series gap;
+    gap.skip = {missing};
+    const std::string g = error_of(write_series(dir, "gap" + std::to_string(missing), gap));
+    EXPECT_NE(g.find("not evenly spaced"), std::string::npos) << g;
+    // The pair around the gap: slices missing - 1 and missing + 1 (files IM((7k + 3) % 6)).
+    for (int k : {missing - 1, missing + 1})
+      EXPECT_NE(g.find("IM" + std::to_string((7 * k + 3) % kNz)), std::string::npos) << g;
+  }
   const std::string two = write_series(dir, "two", Series{});
   Series other;
   other.uid = "1.2.826.0.1.3680043.2.1125.2";
