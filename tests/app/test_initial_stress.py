@@ -8,7 +8,8 @@ doc/user-guide.md "initial_stress"), checked against what equilibrium says indep
   cut in half (ends on rollers), each half relaxes: the cut opens by (a + b (y - y0)) L / E
   (the exact solution: axial stretch plus pure bending of each half), the mean opening
   exactly, the slope to the trilinear elements' bending error, which shrinks ~4x with h/2;
-  the total stress sigma0 + sigma(u) after the cut is near zero; 2 ranks = 1 rank;
+  the total stress sigma0 + sigma(u) after the cut is near zero; 2 ranks = 1 rank; on
+  composite elements of level 1 the neutral line opens by a L / E as well;
 - a field not in equilibrium, sigma_xx = k x (nu = 0, ends clamped), acts as the body force
   div sigma0 = k: u_x = k x (L - x) / (2 E), exact at the nodes;
 - the same field from an HDF5 dataset (file + dataset) gives the expression's result;
@@ -167,6 +168,18 @@ output: {{directory: {d}/free}}
             same = rc2 == 0 and np.allclose(r2["displacement"], r["displacement"], rtol=0,
                                             atol=1e-10 * np.abs(r["displacement"]).max())
             check(same, f"cut bar on 2 ranks = 1 rank: exit {rc2} {err2.strip()[-200:]}")
+    # Composite elements of level 1 (coarse cells as elements): the same load through I^T; the
+    # axial part of the opening is in their space too, so the neutral line opens by a L / E.
+    comp = bar_deck(1, linear, True, f"{d}/comp").replace(
+        "solver: {type: direct}", "solver: {type: gmg}\ndiscretization: {type: composite, level: 1}")
+    rc, out, err = run([write(d, "comp.yaml", comp)])
+    if rc == 0:
+        ys, gap = opening(last_step(f"{d}/comp/comp.h5"))
+        mid = gap[np.isclose(ys, 0.04)][0]
+        check(abs(mid / (a * L / E) - 1) < 1e-7,
+              f"composite level 1, cut bar: opening at the neutral line {mid:.6e} m (a L / E = {a * L / E:.6e})")
+    else:
+        check(False, f"composite cut bar: exit {rc} {err.strip()[-300:]}")
     if len(slope_error) == 2:
         check(slope_error[1] < slope_error[0] / 3,
               f"the slope error shrinks with h: {100 * slope_error[0]:.2f} % -> {100 * slope_error[1]:.2f} %")
