@@ -13,19 +13,25 @@ bool selects(const deck::InitialStress& s, const lattice::Lattice& L, std::int32
   return s.material < 0 || L.material[cell] == s.material;
 }
 
+/// A dataset entry's row of 6 for cell c, or null where the row holds a NaN (no value there).
+const double* dataset_row(const deck::InitialStress& entry, const lattice::Lattice& L,
+                          std::int32_t c) {
+  const auto& ijk = L.ijk[c];
+  const double* v = &(*entry.cells)[6 * std::size_t(L.spec.cell_index(ijk[0], ijk[1], ijk[2]))];
+  return std::any_of(v, v + 6, [](double x) { return std::isnan(x); }) ? nullptr : v;
+}
+
 /// sigma0 of cell c (6 values into s): the deck's entries in order; 0 where none applies.
 void cell_initial_stress(const deck::Deck& deck, const lattice::Lattice& L, std::int32_t c,
                          std::string& bad, double* s) {
   std::fill(s, s + 6, 0.0);
-  const auto& ijk = L.ijk[c];
   for (const auto& entry : deck.initial_stress) {
     if (!selects(entry, L, c)) continue;
     if (entry.cells) {
-      const double* v = &(*entry.cells)[6 * std::size_t(L.spec.cell_index(ijk[0], ijk[1], ijk[2]))];
-      if (std::any_of(v, v + 6, [](double x) { return std::isnan(x); }))
-        continue;  // no value here: the earlier entries' stands
-      std::copy(v, v + 6, s);
+      if (const double* v = dataset_row(entry, L, c)) std::copy(v, v + 6, s);
+      // else: no value here, the earlier entries' stands
     } else {
+      const auto& ijk = L.ijk[c];
       const Eigen::Vector3d x = L.spec.cell_centre(ijk[0], ijk[1], ijk[2]);
       for (int i = 0; i < 6; ++i) s[i] = evaluate(entry.value[i], x, 0.0, bad);
     }
@@ -55,13 +61,7 @@ std::vector<std::string> initial_stress_warnings(const deck::Deck& deck,
     for (std::int32_t c = 0; c < L.num_cells(); ++c) {
       if (!selects(entry, L, c)) continue;
       ++selected;
-      const auto& ijk = L.ijk[c];
-      const double* v = &(*entry.cells)[6 * std::size_t(L.spec.cell_index(ijk[0], ijk[1], ijk[2]))];
-      for (int i = 0; i < 6; ++i)
-        if (std::isnan(v[i])) {
-          ++missing;
-          break;
-        }
+      if (!dataset_row(entry, L, c)) ++missing;
     }
     if (missing > 0)
       out.push_back(entry.where.prefix() + "warning: the dataset has no value (NaN) in " +
@@ -81,7 +81,7 @@ std::vector<double> initial_stress_load(const deck::Deck& deck, const lattice::L
   const double w = L.spec.h * L.spec.h / 4.0;
   // Column d of sigma0 (ParaView order xx yy zz xy yz xz): the traction on a face of normal e_d.
   static const int kColumn[3][3] = {{0, 3, 5}, {3, 1, 4}, {5, 4, 2}};
-  std::string bad;  // the neighbours' values were finite when their own rank evaluated them
+  std::string bad;  // other ranks' cells were found finite where their rank evaluated them
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     const std::int32_t c = D.cells[e];
     const auto& ijk = L.ijk[c];
@@ -102,7 +102,16 @@ std::vector<double> initial_stress_load(const deck::Deck& deck, const lattice::L
           double t[6];
           std::copy(s, s + 6, t);
           if (shared) {
-            if (!have_nb) cell_initial_stress(deck, L, nb, bad, s_nb), have_nb = true;
+            if (!have_nb) {
+              // A local neighbour's sigma0 is at hand (D.cells is ascending); another
+              // rank's is evaluated here.
+              const auto it = std::lower_bound(D.cells.begin(), D.cells.end(), nb);
+              if (it != D.cells.end() && *it == nb)
+                std::copy_n(&sigma0[6 * std::size_t(it - D.cells.begin())], 6, s_nb);
+              else
+                cell_initial_stress(deck, L, nb, bad, s_nb);
+              have_nb = true;
+            }
             for (int i = 0; i < 6; ++i) t[i] = s[i] - s_nb[i];
           }
           double* fq = &f[3 * std::size_t(D.cell_corners[e][q])];

@@ -224,9 +224,8 @@ struct InitialStress {
   /// evaluated at cell centres. Unused when `cells` is set.
   std::array<Field, 6> value;
   /// From an HDF5 dataset of shape (nz, ny, nx, 6) on the lattice's cells: 6 values per
-  /// lattice cell (dense, x fastest); NaN where the file gives none (such a cell keeps an
-  /// earlier entry's value; a selected cell with material must have one: checked after
-  /// voxelization). Null: `value`.
+  /// lattice cell (dense, x fastest); a row with a NaN is "no value" (such a cell keeps an
+  /// earlier entry's value; counted in a warning after voxelization). Null: `value`.
   std::shared_ptr<const std::vector<double>> cells;
   SourceLocation where;
 };

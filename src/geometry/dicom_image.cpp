@@ -222,20 +222,12 @@ VoxelImage load_dicom_series(const std::string& directory, DicomInfo* info) {
   }
   const std::int64_t n[3] = {first.dims[0], first.dims[1], std::int64_t(slices.size())};
   const auto frame = axis_aligned_frame(M, t, n, 1e-3, directory + ": DICOM orientation");
-  VoxelImage image;
-  image.dims = frame.dims;
-  image.origin = frame.origin;
-  image.spacing = frame.spacing;
-  image.values.resize(std::size_t(n[0]) * n[1] * n[2]);
-  const auto& fl = frame.flipped;
+  VoxelImage image = frame.image();
   for (std::int64_t k = 0; k < n[2]; ++k) {
     const auto& v = slices[std::size_t(k)].values;
-    const std::int64_t c = fl[2] ? n[2] - 1 - k : k;
     for (std::int64_t j = 0; j < n[1]; ++j)
-      for (std::int64_t i = 0; i < n[0]; ++i) {
-        const std::int64_t a = fl[0] ? n[0] - 1 - i : i, b = fl[1] ? n[1] - 1 - j : j;
-        image.values[std::size_t(a + n[0] * (b + n[1] * c))] = v[std::size_t(i + n[0] * j)];
-      }
+      for (std::int64_t i = 0; i < n[0]; ++i)
+        image.values[frame.index(i, j, k)] = v[std::size_t(i + n[0] * j)];
   }
   if (info) {
     info->slices = int(slices.size());

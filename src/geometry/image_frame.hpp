@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <string>
 
+#include "geometry/voxel_image.hpp"
+
 namespace hexcut::geometry {
 
 /// Where an image's voxels go: VoxelImage's dims, origin (minimum corner) and spacing [m],
@@ -16,6 +18,24 @@ struct ImageFrame {
   std::array<int, 3> dims{0, 0, 0};
   Eigen::Vector3d origin{0, 0, 0}, spacing{1, 1, 1};
   std::array<bool, 3> flipped{false, false, false};
+
+  /// Position in VoxelImage::values (x fastest) of the file's voxel (i, j, k): reversed
+  /// along the flipped axes.
+  std::size_t index(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    const std::int64_t n[3] = {dims[0], dims[1], dims[2]};
+    const std::int64_t a = flipped[0] ? n[0] - 1 - i : i, b = flipped[1] ? n[1] - 1 - j : j,
+                       c = flipped[2] ? n[2] - 1 - k : k;
+    return std::size_t(a + n[0] * (b + n[1] * c));
+  }
+  /// An image of this frame's dims, origin and spacing, its values allocated (0).
+  VoxelImage image() const {
+    VoxelImage v;
+    v.dims = dims;
+    v.origin = origin;
+    v.spacing = spacing;
+    v.values.resize(std::size_t(dims[0]) * std::size_t(dims[1]) * std::size_t(dims[2]));
+    return v;
+  }
 };
 
 /// The frame of an image whose voxel centre (i, j, k) lies at world M (i, j, k)^T + t, in

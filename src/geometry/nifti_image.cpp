@@ -19,19 +19,15 @@ namespace {
 using NiftiPtr = std::unique_ptr<nifti_image, void (*)(nifti_image*)>;
 
 template <class T>
-void convert(const nifti_image& nim, const std::array<bool, 3>& flip, double slope,
-             double intercept, std::vector<float>& out) {
+void convert(const nifti_image& nim, const ImageFrame& frame, double slope, double intercept,
+             std::vector<float>& out) {
   const auto* in = static_cast<const T*>(nim.data);
   const std::int64_t n[3] = {nim.nx, nim.ny, nim.nz};
-  out.resize(std::size_t(n[0] * n[1] * n[2]));
   for (std::int64_t k = 0; k < n[2]; ++k)
     for (std::int64_t j = 0; j < n[1]; ++j)
-      for (std::int64_t i = 0; i < n[0]; ++i) {
-        const std::int64_t a = flip[0] ? n[0] - 1 - i : i, b = flip[1] ? n[1] - 1 - j : j,
-                           c = flip[2] ? n[2] - 1 - k : k;
-        out[std::size_t(a + n[0] * (b + n[1] * c))] =
+      for (std::int64_t i = 0; i < n[0]; ++i)
+        out[frame.index(i, j, k)] =
             float(slope * double(in[i + n[0] * (j + n[1] * k)]) + intercept);
-      }
 }
 
 }  // namespace
@@ -79,10 +75,7 @@ VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info) {
       I.units = "unknown (mm)";
   }
   const auto frame = axis_aligned_frame(M, t, n, unit, path + ": NIfTI " + I.transform);
-  VoxelImage image;
-  image.dims = frame.dims;
-  image.origin = frame.origin;
-  image.spacing = frame.spacing;
+  VoxelImage image = frame.image();
   I.flipped = frame.flipped;
   if (nim->scl_slope != 0.0 && std::isfinite(nim->scl_slope)) {
     I.slope = nim->scl_slope;
@@ -91,34 +84,34 @@ VoxelImage load_nifti_image(const std::string& path, NiftiInfo* info) {
   auto& v = image.values;
   switch (nim->datatype) {
     case DT_UINT8:
-      convert<std::uint8_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::uint8_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_INT8:
-      convert<std::int8_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::int8_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_INT16:
-      convert<std::int16_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::int16_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_UINT16:
-      convert<std::uint16_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::uint16_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_INT32:
-      convert<std::int32_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::int32_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_UINT32:
-      convert<std::uint32_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::uint32_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_INT64:
-      convert<std::int64_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::int64_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_UINT64:
-      convert<std::uint64_t>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<std::uint64_t>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_FLOAT32:
-      convert<float>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<float>(*nim, frame, I.slope, I.intercept, v);
       break;
     case DT_FLOAT64:
-      convert<double>(*nim, I.flipped, I.slope, I.intercept, v);
+      convert<double>(*nim, frame, I.slope, I.intercept, v);
       break;
     default:
       throw InputError(path + ": NIfTI data type " +
