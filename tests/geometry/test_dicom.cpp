@@ -21,6 +21,7 @@
 #include "common/errors.hpp"
 #include "deck/deck.hpp"
 #include "geometry/voxel_image.hpp"
+#include "image_deck.hpp"
 #include "test_util.hpp"
 
 namespace hg = hexcut::geometry;
@@ -105,12 +106,7 @@ std::string write_series(const TempDir& dir, const std::string& name, const Seri
 }
 
 std::string error_of(const std::string& folder) {
-  try {
-    hg::load_dicom_series(folder);
-  } catch (const hexcut::InputError& e) {
-    return e.what();
-  }
-  return "no error";
+  return hg::test::thrown<hexcut::InputError>([&] { hg::load_dicom_series(folder); });
 }
 
 }  // namespace
@@ -148,24 +144,14 @@ TEST(GeometryDicom, MatchesTheSamePhantomGivenAsRaw) {
   EXPECT_TRUE(info.flipped[0] && info.flipped[1] && !info.flipped[2]);
   // The raw phantom in RAS order: raw voxel (a, b, c) is the series' (nx-1-a, ny-1-b, c),
   // its minimum corner the RAS position of voxel (nx-1, ny-1, 0) less half a voxel, in m.
-  std::string bytes;
-  for (int c = 0; c < kNz; ++c)
-    for (int b = 0; b < kNy; ++b)
-      for (int a = 0; a < kNx; ++a) {
-        const std::int16_t v = value_at(kNx - 1 - a, kNy - 1 - b, c);
-        bytes.append(reinterpret_cast<const char*>(&v), 2);
-      }
+  const std::string bytes = hg::test::int16_raw(
+      {kNx, kNy, kNz}, [](int a, int b, int c) { return value_at(kNx - 1 - a, kNy - 1 - b, c); });
   const Vector3d spacing = 1e-3 * Vector3d(s.dx, s.dy, s.dz);
   const Vector3d corner = lps(s, kNx - 1, kNy - 1, 0);
   const Vector3d origin = 1e-3 * Vector3d(-corner[0], -corner[1], corner[2]) - 0.5 * spacing;
   const auto raw = hg::load_raw_image(dir.write("phantom.raw", bytes), {kNx, kNy, kNz}, "int16",
                                       true, origin, spacing);
-  ASSERT_EQ(img.dims, raw.dims);
-  EXPECT_LT((img.spacing - raw.spacing).norm(), 1e-15);
-  EXPECT_LT((img.origin - raw.origin).norm(), 1e-15);
-  ASSERT_EQ(img.values.size(), raw.values.size());
-  for (std::size_t v = 0; v < raw.values.size(); ++v)
-    EXPECT_EQ(img.values[v], 2.0f * raw.values[v] - 1024.0f) << v;
+  hg::test::expect_rescaled_copy(img, raw, 2.0f, -1024.0f);
 }
 
 TEST(GeometryDicom, EveryVoxelStaysWhereTheSlicesPutIt) {
@@ -222,27 +208,7 @@ TEST(GeometryDicom, DeckReadsAFolderAsADicomSeries) {
   // slices, so giving one is an error at its deck line.
   TempDir dir("dicom_deck");
   const Series s;
-  const std::string folder = write_series(dir, "ct", s);
-  const std::string head =
-      "lattice: {h: 0.0005, bounds: [[-0.013, 0.017, 0.029], [-0.010, 0.020, 0.037]]}\n"
-      "materials: {bone: {E: 1.0e9, nu: 0.3, rho: 1900}}\n"
-      "geometry:\n"
-      "  - image:\n"
-      "      file: " +
-      folder + "\n      threshold: 0\n      material: bone\n";
-  const auto deck =
-      hexcut::deck::parse_deck(head + "analysis: {type: dynamic, dt: 0.001, steps: 1}\n", "d.yaml");
-  ASSERT_EQ(deck.geometry.size(), 1u);
-  ASSERT_TRUE(deck.geometry[0].image);
-  EXPECT_LT((deck.geometry[0].image->spacing - 1e-3 * Vector3d(s.dx, s.dy, s.dz)).norm(), 1e-15);
-  try {
-    hexcut::deck::parse_deck(
-        head + "      spacing: [1, 1, 1]\nanalysis: {type: dynamic, dt: 0.001, steps: 1}\n",
-        "d.yaml");
-    FAIL() << "no InputError";
-  } catch (const hexcut::InputError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find("d.yaml:8:"), std::string::npos) << m;
-    EXPECT_NE(m.find("not used for a DICOM series"), std::string::npos) << m;
-  }
+  hg::test::expect_image_deck("[[-0.013, 0.017, 0.029], [-0.010, 0.020, 0.037]]",
+                              write_series(dir, "ct", s), 1e-3 * Vector3d(s.dx, s.dy, s.dz),
+                              "not used for a DICOM series");
 }

@@ -98,12 +98,8 @@ std::string cube_stl_binary(const hg::TriangleMesh& cube) {
 }
 
 std::string error_of(const std::string& path) {
-  try {
-    hg::load_triangle_mesh(path);
-  } catch (const hexcut::InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
+  return hg::test::thrown<hexcut::InputError>([&] { hg::load_triangle_mesh(path); },
+                                              "(no InputError)");
 }
 
 }  // namespace

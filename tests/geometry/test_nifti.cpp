@@ -13,6 +13,7 @@
 #include "common/errors.hpp"
 #include "deck/deck.hpp"
 #include "geometry/voxel_image.hpp"
+#include "image_deck.hpp"
 #include "test_util.hpp"
 
 namespace hg = hexcut::geometry;
@@ -92,23 +93,12 @@ TEST(GeometryNifti, MatchesTheSamePhantomGivenAsRaw) {
   EXPECT_EQ(info.slope, 2.0);
   EXPECT_EQ(info.intercept, -1024.0);
   // The raw phantom with what the header states, in m: voxel (0,0,0) centred at t.
-  std::string bytes;
-  for (int k = 0; k < kNz; ++k)
-    for (int j = 0; j < kNy; ++j)
-      for (int i = 0; i < kNx; ++i) {
-        const std::int16_t v = value_at(i, j, k);
-        bytes.append(reinterpret_cast<const char*>(&v), 2);
-      }
+  const std::string bytes = hg::test::int16_raw({kNx, kNy, kNz}, value_at);
   const Vector3d spacing = 1e-3 * Vector3d(0.5, 0.25, 2.0);
   const Vector3d origin = 1e-3 * Vector3d(1.0, -2.0, 0.5) - 0.5 * spacing;
   const auto raw = hg::load_raw_image(dir.write("phantom.raw", bytes), {kNx, kNy, kNz}, "int16",
                                       true, origin, spacing);
-  ASSERT_EQ(img.dims, raw.dims);
-  EXPECT_LT((img.spacing - raw.spacing).norm(), 1e-15);
-  EXPECT_LT((img.origin - raw.origin).norm(), 1e-15);
-  ASSERT_EQ(img.values.size(), raw.values.size());
-  for (std::size_t v = 0; v < raw.values.size(); ++v)
-    EXPECT_EQ(img.values[v], 2.0f * raw.values[v] - 1024.0f) << v;
+  hg::test::expect_rescaled_copy(img, raw, 2.0f, -1024.0f);
 }
 
 TEST(GeometryNifti, AxesAlongMinusXAreReversedAndEveryVoxelStaysWhereTheHeaderPutsIt) {
@@ -145,12 +135,7 @@ TEST(GeometryNifti, RefusesWhatHexcutCannotRepresent) {
   auto message = [&](const Header& h, const std::string& name) {
     const std::string path = dir.file(name);
     write_nifti(path, h);
-    try {
-      hg::load_nifti_image(path);
-    } catch (const hexcut::InputError& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return hg::test::thrown<hexcut::InputError>([&] { hg::load_nifti_image(path); });
   };
   Header oblique;  // 30 degrees about z
   const double c = std::cos(0.5236), s = std::sin(0.5236);
@@ -175,26 +160,6 @@ TEST(GeometryNifti, DeckTakesTheVoxelsFromTheHeader) {
   TempDir dir("nifti_deck");
   const std::string nii = dir.file("ct.nii.gz");
   write_nifti(nii, Header{});
-  const std::string head =
-      "lattice: {h: 0.0005, bounds: [[0, -0.003, -0.001], [0.004, 0.0, 0.006]]}\n"
-      "materials: {bone: {E: 1.0e9, nu: 0.3, rho: 1900}}\n"
-      "geometry:\n"
-      "  - image:\n"
-      "      file: " +
-      nii + "\n      threshold: 0\n      material: bone\n";
-  const auto deck =
-      hexcut::deck::parse_deck(head + "analysis: {type: dynamic, dt: 0.001, steps: 1}\n", "d.yaml");
-  ASSERT_EQ(deck.geometry.size(), 1u);
-  ASSERT_TRUE(deck.geometry[0].image);
-  EXPECT_LT((deck.geometry[0].image->spacing - 1e-3 * Vector3d(0.5, 0.25, 2.0)).norm(), 1e-15);
-  try {
-    hexcut::deck::parse_deck(
-        head + "      spacing: [1, 1, 1]\nanalysis: {type: dynamic, dt: 0.001, steps: 1}\n",
-        "d.yaml");
-    FAIL() << "no InputError";
-  } catch (const hexcut::InputError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find("d.yaml:8:"), std::string::npos) << m;
-    EXPECT_NE(m.find("not used for a NIfTI image"), std::string::npos) << m;
-  }
+  hg::test::expect_image_deck("[[0, -0.003, -0.001], [0.004, 0.0, 0.006]]", nii,
+                              1e-3 * Vector3d(0.5, 0.25, 2.0), "not used for a NIfTI image");
 }

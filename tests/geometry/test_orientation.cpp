@@ -193,12 +193,7 @@ hg::TriangleMesh mobius(int n, bool twist, bool fin) {
 }
 
 std::string orient_error(hg::TriangleMesh m) {
-  try {
-    hg::orient_solid(m);
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "(no error)";
+  return hg::test::thrown<std::invalid_argument>([&] { hg::orient_solid(m); }, "(no error)");
 }
 
 }  // namespace

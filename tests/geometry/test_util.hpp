@@ -1,14 +1,18 @@
 // Helpers shared by the geometry tests.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include "geometry/triangle_mesh.hpp"
+#include "geometry/voxel_image.hpp"
 
 namespace hexcut::geometry::test {
 
@@ -93,5 +97,42 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+/// The message of the E that f() throws, or `none` when it throws nothing.
+template <class E, class F>
+std::string thrown(F&& f, const std::string& none = "no error") {
+  try {
+    f();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return none;
+}
+
+/// A headerless little-endian int16 image of n voxels, voxel (a, b, c) (x fastest) holding
+/// value(a, b, c): the raw twin of a phantom written in a scanner format.
+template <class F>
+std::string int16_raw(const std::array<int, 3>& n, F value) {
+  std::string bytes;
+  for (int c = 0; c < n[2]; ++c)
+    for (int b = 0; b < n[1]; ++b)
+      for (int a = 0; a < n[0]; ++a) {
+        const std::int16_t v = value(a, b, c);
+        bytes.append(reinterpret_cast<const char*>(&v), 2);
+      }
+  return bytes;
+}
+
+/// img is raw on the same grid (dims; spacing and origin to 1e-15 m) with every value
+/// rescaled: slope * raw + intercept, exactly.
+inline void expect_rescaled_copy(const VoxelImage& img, const VoxelImage& raw, float slope,
+                                 float intercept) {
+  ASSERT_EQ(img.dims, raw.dims);
+  EXPECT_LT((img.spacing - raw.spacing).norm(), 1e-15);
+  EXPECT_LT((img.origin - raw.origin).norm(), 1e-15);
+  ASSERT_EQ(img.values.size(), raw.values.size());
+  for (std::size_t v = 0; v < raw.values.size(); ++v)
+    EXPECT_EQ(img.values[v], slope * raw.values[v] + intercept) << v;
+}
 
 }  // namespace hexcut::geometry::test
