@@ -8,6 +8,8 @@ const Events& events() {
     PetscClassId id;
     PetscClassIdRegister("hexcut", &id);
     PetscLogEventRegister("hexcutSetup", id, &r.setup);
+    PetscLogEventRegister("hexcutVoxelize", id, &r.voxelize);
+    PetscLogEventRegister("hexcutTopology", id, &r.topology);
     PetscLogEventRegister("hexcutAssembly", id, &r.assembly);
     PetscLogEventRegister("hexcutSolve", id, &r.solve);
     PetscLogEventRegister("hexcutStress", id, &r.stress);

@@ -6,7 +6,10 @@
 namespace hexcut::analysis {
 
 struct Events {
-  PetscLogEvent setup, assembly, solve, stress, output, cut_links, rebuild, energy;
+  // setup (the model) holds voxelize (the body on the lattice) and topology (vertex copies,
+  // partition, DOF layout, boundary data).
+  PetscLogEvent setup, voxelize, topology, assembly, solve, stress, output, cut_links, rebuild,
+      energy;
 };
 
 /// Registers the events once (idempotent) and returns them. The registration's error codes

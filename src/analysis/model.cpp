@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "analysis/events.hpp"
 #include "analysis/memory.hpp"
 #include "assembly/initial_stress.hpp"
 #include "common/errors.hpp"
@@ -138,9 +139,13 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCall(require_memory(comm, deck, -1));  // before the dense lattice tables are allocated
-  M->lattice = build_lattice(deck, &M->warnings);
-  for (auto& w : assembly::initial_stress_warnings(deck, M->lattice)) M->warnings.push_back(w);
+  {
+    const EventScope scope(events().voxelize);
+    M->lattice = build_lattice(deck, &M->warnings);
+    for (auto& w : assembly::initial_stress_warnings(deck, M->lattice)) M->warnings.push_back(w);
+  }
   PetscCall(require_memory(comm, deck, M->lattice.num_cells()));
+  const EventScope scope(events().topology);
   M->copies = topology::build_vertex_copies(M->lattice);
   // Composite elements of level l are cells of hierarchy level l, which must lie on one
   // rank: super-blocks of at least 2^l cells; 2^(l+2) by default, so that hexcut's multigrid

@@ -78,6 +78,21 @@ OptionSetup setup_options(const deck::Deck& deck) {
   return o;
 }
 
+/// What the command line changed in the deck (-hexcut_refine, -hexcut_output_directory).
+void print_overrides(MPI_Comm comm, const deck::Deck& deck, const HexcutOptions& o) {
+  const auto& s = deck.lattice;
+  if (o.refine != 1.0) {
+    char line[160];  // (std::snprintf: PetscPrintf's %g prints 2 as "2.")
+    std::snprintf(line, sizeof line,
+                  "hexcut: -hexcut_refine %g: lattice h = %g m, dims %d x %d x %d\n", o.refine, s.h,
+                  s.dims[0], s.dims[1], s.dims[2]);
+    PetscPrintf(comm, "%s", line);
+  }
+  if (!o.output_directory.empty())
+    PetscPrintf(comm, "hexcut: -hexcut_output_directory: output goes to %s\n",
+                o.output_directory.c_str());
+}
+
 /// Warnings of the deck and of the model build, once (rank 0, stderr).
 void print_warnings(MPI_Comm comm, const deck::Deck& deck, const analysis::Model& model) {
   for (const auto* list : {&deck.warnings, &model.warnings})
@@ -174,9 +189,11 @@ deck::Deck read_deck(MPI_Comm comm, const std::string& path) {
   return deck::parse_deck(text, path);
 }
 
-void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
+void check_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions&) {
   namespace an = analysis;
-  const auto options = setup_options(deck);
+  const auto options = setup_options(deck_in);
+  const deck::Deck deck = apply_overrides(deck_in, options.hexcut);
+  print_overrides(comm, deck, options.hexcut);
   if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};  // its checks
   an::Model model;
   throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
@@ -206,13 +223,15 @@ void check_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions&) {
   throw_on_petsc_error(an::destroy_model(&model));
 }
 
-void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
+void run_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions& job) {
   namespace an = analysis;
   const auto& ev = an::events();
   PetscLogDouble t_start;
   PetscTime(&t_start);
   // Before anything is written: the options, then the result file's lock and paths.
-  const auto options = setup_options(deck);
+  const auto options = setup_options(deck_in);
+  const deck::Deck deck = apply_overrides(deck_in, options.hexcut);
+  print_overrides(comm, deck, options.hexcut);
   const std::int64_t max_steps = options.hexcut.max_steps;
   const bool restart = !job.restart_path.empty();
   const ResultLock lock(comm, restart ? job.restart_path : result_path(deck));
@@ -338,14 +357,21 @@ void run_job(MPI_Comm comm, const deck::Deck& deck, const JobOptions& job) {
   commit_result(comm, paths);
   PetscLogDouble t_end;
   PetscTime(&t_end);
-  double peak = peak_memory_bytes(), total_peak = 0;
+  double peak = peak_memory_bytes(), total_peak = 0, max_peak = 0;
   MPI_Allreduce(&peak, &total_peak, 1, MPI_DOUBLE, MPI_SUM, comm);
+  MPI_Allreduce(&peak, &max_peak, 1, MPI_DOUBLE, MPI_MAX, comm);
   std::string indexes;  // the indexes that exist (the surface one only with surfaces)
   for (const auto& index : output::index_paths(paths.final_path))
     if (std::filesystem::exists(index)) indexes += " and " + index;
-  PetscPrintf(comm, "hexcut: wrote %s%s (%.2f s, peak memory %.1f MiB over all ranks)\n",
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  char per_rank[64] = "";
+  if (size > 1)
+    std::snprintf(per_rank, sizeof per_rank, ", %.1f MiB on the largest rank",
+                  max_peak / (1024.0 * 1024.0));
+  PetscPrintf(comm, "hexcut: wrote %s%s (%.2f s, peak memory %.1f MiB over all ranks%s)\n",
               paths.final_path.c_str(), indexes.c_str(), t_end - t_start,
-              total_peak / (1024.0 * 1024.0));
+              total_peak / (1024.0 * 1024.0), per_rank);
   warn_unused_options(comm, options.user_options);
   throw_on_petsc_error(an::destroy_state(&state));
   throw_on_petsc_error(an::destroy_model(&model));

@@ -3,8 +3,11 @@
 #include <petscsys.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <sstream>
 #include <vector>
@@ -15,10 +18,10 @@
 namespace hexcut::app {
 namespace {
 
-const std::vector<std::string> kKnown = {"-hexcut_composite_carry",  "-hexcut_composite_midpoint",
-                                         "-hexcut_composite_rotate", "-hexcut_max_steps",
-                                         "-hexcut_memory_available", "-hexcut_residual_history",
-                                         "-hexcut_superblock"};
+const std::vector<std::string> kKnown = {
+    "-hexcut_composite_carry", "-hexcut_composite_midpoint", "-hexcut_composite_rotate",
+    "-hexcut_max_steps",       "-hexcut_memory_available",   "-hexcut_output_directory",
+    "-hexcut_refine",          "-hexcut_residual_history",   "-hexcut_superblock"};
 
 std::string lower(std::string s) {
   for (auto& ch : s) ch = char(std::tolower(static_cast<unsigned char>(ch)));
@@ -56,6 +59,15 @@ std::int64_t positive_integer(const char* name, const std::string& text) {
   const long long v = std::strtoll(text.c_str(), &end, 10);
   if (text.empty() || *end != '\0' || errno == ERANGE || v < 1)
     throw InputError(std::string(name) + " must be an integer >= 1, got '" + text + "'");
+  return v;
+}
+
+double positive_real(const char* name, const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || errno == ERANGE || !(v > 0) || !std::isfinite(v))
+    throw InputError(std::string(name) + " must be a number > 0, got '" + text + "'");
   return v;
 }
 
@@ -102,7 +114,36 @@ HexcutOptions read_hexcut_options() {
   }
   if (option_string("-hexcut_residual_history", &value) && value.empty())
     throw InputError("-hexcut_residual_history needs a file name");
+  if (option_string("-hexcut_refine", &value)) o.refine = positive_real("-hexcut_refine", value);
+  if (option_string("-hexcut_output_directory", &value)) {
+    if (value.empty()) throw InputError("-hexcut_output_directory needs a directory");
+    o.output_directory = value;
+  }
   return o;
+}
+
+deck::Deck apply_overrides(const deck::Deck& deck, const HexcutOptions& options) {
+  deck::Deck d = deck;
+  if (!options.output_directory.empty()) d.output.directory = options.output_directory;
+  if (options.refine != 1.0) {
+    auto& s = d.lattice;
+    s.h /= options.refine;
+    std::array<double, 3> n{};
+    for (int a = 0; a < 3; ++a)
+      // The relative slack keeps 10 * 1.2 from becoming 13 cells through round-off.
+      n[a] = std::max(1.0, std::ceil(double(s.dims[a]) * options.refine - 1e-9));
+    if (n[0] * n[1] * n[2] > 2.0e9) {
+      char what[256];
+      std::snprintf(
+          what, sizeof what,
+          "-hexcut_refine: the refined lattice has %.15g x %.15g x %.15g cells, more than "
+          "2e9; hexcut uses 32-bit cell indices",
+          n[0], n[1], n[2]);
+      throw InputError(what);
+    }
+    for (int a = 0; a < 3; ++a) s.dims[a] = int(n[a]);
+  }
+  return d;
 }
 
 void warn_unused_options(MPI_Comm comm, const std::set<std::string>& user_options) {

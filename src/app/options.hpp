@@ -10,11 +10,17 @@
 #include <set>
 #include <string>
 
+#include "deck/deck.hpp"
+
 namespace hexcut::app {
 
 struct HexcutOptions {
   int superblock = 8;           // -hexcut_superblock: cells per partition super-block side
   std::int64_t max_steps = -1;  // -hexcut_max_steps: stop after this many steps (-1: all)
+  // -hexcut_refine R: the deck's lattice with cells R times smaller (h / R; dims * R rounded
+  // up, so the lattice still covers the deck's box), for convergence and weak-scaling studies.
+  double refine = 1.0;
+  std::string output_directory;  // -hexcut_output_directory DIR: replaces output.directory
 };
 
 /// Reads and validates every -hexcut_* option in the options database. Throws
@@ -22,6 +28,11 @@ struct HexcutOptions {
 /// value of the wrong kind (-hexcut_max_steps abc, 0 or -3). Call after PetscInitialize
 /// and after the deck's petsc_options are in the database.
 HexcutOptions read_hexcut_options();
+
+/// The deck as the run uses it: `deck` with the command line's -hexcut_refine and
+/// -hexcut_output_directory applied. Throws InputError (exit 2) when the refined lattice has
+/// more than 2e9 cells.
+deck::Deck apply_overrides(const deck::Deck& deck, const HexcutOptions& options);
 
 /// Names (lower case, with '-') of every option now in the database: call right after
 /// PetscInitialize and after the deck's options went in, before hexcut's own defaults.
