@@ -133,7 +133,8 @@ PetscErrorCode build_distributed_data(MPI_Comm comm, const deck::Deck& deck, int
 
 }  // namespace
 
-PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* M) {
+PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* M,
+                           topology::PartitionMethod method) {
   PetscFunctionBeginUser;
   PetscMPIInt rank, size;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
@@ -155,8 +156,8 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
     min_superblock = 1 << deck.discretization.level;
     superblock = std::max(superblock, 4 * min_superblock);
   }
-  M->partition =
-      topology::partition_lattice(M->lattice, M->copies, size, superblock, min_superblock);
+  M->partition = topology::partition_lattice(M->lattice, M->copies, size, superblock,
+                                             min_superblock, method, comm);
   PetscCall(build_distributed_data(comm, deck, rank, M));
   PetscFunctionReturn(0);
 }

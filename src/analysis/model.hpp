@@ -34,8 +34,10 @@ struct Model {
 lattice::Lattice build_lattice(const deck::Deck& deck,
                                std::vector<std::string>* warnings = nullptr);
 
-/// Builds the whole model on `comm`. `superblock` = cells per super-block side.
-PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model);
+/// Builds the whole model on `comm`. `superblock` = cells per super-block side, `method` how
+/// super-blocks are assigned to ranks (topology/partition.hpp).
+PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model,
+                           topology::PartitionMethod method = topology::PartitionMethod::metis);
 PetscErrorCode destroy_model(Model* model);
 
 /// After the lattice's links changed (a cut): rebuilds vertex copies, DOF layout, DM,

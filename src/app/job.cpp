@@ -3,6 +3,7 @@
 #include <petscsys.h>
 #include <petsctime.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -58,8 +59,20 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
     return;
   }
   const auto pieces = analysis::find_pieces(comm, model);
-  PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies\n",
-              when, r.events, (long long)r.links, int(pieces.size()), int(model.copies.num_copies));
+  // The partition stays (a cut changes links, not cells); the copies it adds may unbalance it.
+  std::string balance;
+  if (model.partition.num_ranks > 1) {
+    std::vector<std::int64_t> owned(model.partition.num_ranks, 0);
+    for (int rank : model.partition.copy_rank) ++owned[rank];
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " (DOFs max/mean over ranks %.3f)",
+                  double(*std::max_element(owned.begin(), owned.end())) * double(owned.size()) /
+                      double(model.copies.num_copies));
+    balance = buf;
+  }
+  PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies%s\n",
+              when, r.events, (long long)r.links, int(pieces.size()), int(model.copies.num_copies),
+              balance.c_str());
   for (const auto& p : pieces) PetscPrintf(comm, "  %s\n", analysis::describe(p).c_str());
 }
 
@@ -91,6 +104,22 @@ void print_overrides(MPI_Comm comm, const deck::Deck& deck, const HexcutOptions&
   if (!o.output_directory.empty())
     PetscPrintf(comm, "hexcut: -hexcut_output_directory: output goes to %s\n",
                 o.output_directory.c_str());
+}
+
+/// On several ranks: how the partition balances cells and DOFs and what it cuts (rank 0).
+void print_partition(MPI_Comm comm, const analysis::Model& model, const HexcutOptions& o) {
+  const auto& P = model.partition;
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  if (P.num_ranks < 2 || rank != 0) return;
+  const auto s = topology::partition_stats(model.lattice, model.copies, P);
+  PetscPrintf(PETSC_COMM_SELF,
+              "hexcut: partition %s, super-blocks of %d: cells max/mean %.3f, DOFs max/mean %.3f, "
+              "%lld links between ranks, ghost DOFs %.2f%% of all (largest rank %lld)\n",
+              topology::method_name(o.partition), P.superblock, double(s.max_cells) / s.mean_cells,
+              double(s.max_copies) / s.mean_copies, (long long)s.cut_links,
+              100.0 * double(s.ghosts) / double(model.copies.num_copies),
+              3 * (long long)s.max_ghosts);
 }
 
 /// Warnings of the deck and of the model build, once (rank 0, stderr).
@@ -196,11 +225,13 @@ void check_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions&) {
   print_overrides(comm, deck, options.hexcut);
   if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};  // its checks
   an::Model model;
-  throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
+  throw_on_petsc_error(
+      an::build_model(comm, deck, options.hexcut.superblock, &model, options.hexcut.partition));
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "%s: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
               int(model.lattice.num_cells()), 3 * int(model.copies.num_copies),
               int(model.boundary.constraints.global_count));
+  print_partition(comm, model, options.hexcut);
   an::State state;
   throw_on_petsc_error(an::create_state(model.dm, &state));
   {
@@ -250,13 +281,15 @@ void run_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions& job) {
   an::Model model;
   {
     const an::EventScope scope(ev.setup);
-    throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model));
+    throw_on_petsc_error(
+        an::build_model(comm, deck, options.hexcut.superblock, &model, options.hexcut.partition));
   }
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",
               int(model.lattice.num_cells()), int(model.copies.num_copies),
               3 * int(model.copies.num_copies), int(model.boundary.constraints.global_count),
               model.layout.num_ranks);
+  print_partition(comm, model, options.hexcut);
   if (restart) require_same_physics(comm, deck, model, paths.final_path);
   if (paths.replaces)
     PetscPrintf(comm, "hexcut: writing %s; it replaces %s when the run ends\n",

@@ -27,6 +27,7 @@ const char* kUsage =
     "                   (same as output.overwrite: true; without it hexcut refuses)\n"
     "PETSc options on the command line override the deck's solver.petsc_options.\n"
     "hexcut options: -hexcut_superblock N (cells per partition block side, default 8),\n"
+    "                -hexcut_partition metis|ptscotch|sfc (super-blocks to ranks),\n"
     "                -hexcut_max_steps N (stop after N steps; continue with --restart),\n"
     "                -hexcut_residual_history FILE (Krylov residuals of every solve),\n"
     "                -hexcut_refine R (the deck's lattice with cells R times smaller),\n"

@@ -18,10 +18,11 @@
 namespace hexcut::app {
 namespace {
 
-const std::vector<std::string> kKnown = {
-    "-hexcut_composite_carry", "-hexcut_composite_midpoint", "-hexcut_composite_rotate",
-    "-hexcut_max_steps",       "-hexcut_memory_available",   "-hexcut_output_directory",
-    "-hexcut_refine",          "-hexcut_residual_history",   "-hexcut_superblock"};
+const std::vector<std::string> kKnown = {"-hexcut_composite_carry",  "-hexcut_composite_midpoint",
+                                         "-hexcut_composite_rotate", "-hexcut_max_steps",
+                                         "-hexcut_memory_available", "-hexcut_output_directory",
+                                         "-hexcut_partition",        "-hexcut_refine",
+                                         "-hexcut_residual_history", "-hexcut_superblock"};
 
 std::string lower(std::string s) {
   for (auto& ch : s) ch = char(std::tolower(static_cast<unsigned char>(ch)));
@@ -115,6 +116,14 @@ HexcutOptions read_hexcut_options() {
   if (option_string("-hexcut_residual_history", &value) && value.empty())
     throw InputError("-hexcut_residual_history needs a file name");
   if (option_string("-hexcut_refine", &value)) o.refine = positive_real("-hexcut_refine", value);
+  if (option_string("-hexcut_partition", &value)) {
+    using topology::PartitionMethod;
+    bool found = false;
+    for (auto m : {PartitionMethod::metis, PartitionMethod::ptscotch, PartitionMethod::sfc})
+      if (lower(value) == topology::method_name(m)) o.partition = m, found = true;
+    if (!found)
+      throw InputError("-hexcut_partition must be metis, ptscotch or sfc, got '" + value + "'");
+  }
   if (option_string("-hexcut_output_directory", &value)) {
     if (value.empty()) throw InputError("-hexcut_output_directory needs a directory");
     o.output_directory = value;

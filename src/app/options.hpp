@@ -11,11 +11,14 @@
 #include <string>
 
 #include "deck/deck.hpp"
+#include "topology/partition.hpp"
 
 namespace hexcut::app {
 
 struct HexcutOptions {
-  int superblock = 8;           // -hexcut_superblock: cells per partition super-block side
+  int superblock = 8;  // -hexcut_superblock: cells per partition super-block side
+  // -hexcut_partition metis|ptscotch|sfc: how super-blocks are assigned to ranks.
+  topology::PartitionMethod partition = topology::PartitionMethod::metis;
   std::int64_t max_steps = -1;  // -hexcut_max_steps: stop after this many steps (-1: all)
   // -hexcut_refine R: the deck's lattice with cells R times smaller (h / R; dims * R rounded
   // up, so the lattice still covers the deck's box), for convergence and weak-scaling studies.

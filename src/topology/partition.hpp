@@ -1,18 +1,29 @@
 // Distribution of cells and vertex copies over MPI ranks (doc/theory.md, "Parallel layout"). The
 // lattice is cut into super-blocks of `superblock` cells per side and whole super-blocks go to
-// ranks (METIS k-way on the super-block face-adjacency graph, weighted by material cell count), so
-// every coarse cell of a multigrid hierarchy up to log2(superblock)+1 levels lies on one rank. A
-// vertex copy is owned by the owner of its lowest-numbered incident cell. Every rank computes the
-// same partition from the same lattice.
+// ranks, so every coarse cell of a multigrid hierarchy up to log2(superblock)+1 levels lies on one
+// rank. Three methods assign them (-hexcut_partition; doc/benchmarks.md, "Partitioning"): METIS
+// k-way on the super-block face-adjacency graph weighted by material cell count (the default),
+// PT-Scotch on the same graph through PETSc's MatPartitioning, distributed over the ranks, or a
+// Hilbert space-filling curve through the super-blocks cut into pieces of equal cell count. A
+// vertex copy is owned by the owner of its lowest-numbered incident cell. Every rank ends with the
+// same partition.
 #pragma once
 
+#include <mpi.h>
+
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "lattice/lattice.hpp"
 #include "topology/vertex_copies.hpp"
 
 namespace hexcut::topology {
+
+enum class PartitionMethod { metis, ptscotch, sfc };
+
+/// "metis", "ptscotch", "sfc".
+const char* method_name(PartitionMethod m);
 
 struct Partition {
   int num_ranks = 1;
@@ -23,9 +34,29 @@ struct Partition {
 
 /// `superblock` is a power of two; it is halved while there are fewer than 2 occupied
 /// super-blocks per rank, but not below `min_superblock` (composite elements of level l need
-/// 2^l: a composite element must lie on one rank). Throws std::runtime_error if the body
+/// 2^l: a composite element must lie on one rank). PT-Scotch partitions the super-block graph
+/// distributed over `comm` (collective on it; any size, the result is gathered on every rank);
+/// METIS and the curve compute it on every rank alike. Throws std::runtime_error if the body
 /// cannot be split.
 Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies& copies,
-                            int num_ranks, int superblock, int min_superblock = 1);
+                            int num_ranks, int superblock, int min_superblock = 1,
+                            PartitionMethod method = PartitionMethod::metis,
+                            MPI_Comm comm = MPI_COMM_SELF);
+
+/// What a partition costs: balance and communication. Cells and owned vertex copies (DOFs / 3)
+/// per rank, the face links between cells of different ranks (each once), and the ghost copies
+/// of each rank (copies at its cells' corners that another rank owns: what its halo exchange
+/// moves).
+struct PartitionStats {
+  std::int64_t max_cells = 0, max_copies = 0, cut_links = 0, ghosts = 0, max_ghosts = 0;
+  double mean_cells = 0, mean_copies = 0;
+};
+PartitionStats partition_stats(const lattice::Lattice& lattice, const VertexCopies& copies,
+                               const Partition& partition);
+
+/// Position of super-block (x, y, z) of a 2^bits-sided grid along a 3D Hilbert curve
+/// (Skilling 2004, "Programming the Hilbert curve"; doc/references.md): consecutive keys are
+/// face neighbours.
+std::uint64_t hilbert_key(std::uint32_t x, std::uint32_t y, std::uint32_t z, int bits);
 
 }  // namespace hexcut::topology

@@ -1,0 +1,64 @@
+"""-hexcut_partition metis|ptscotch|sfc (doc/user-guide.md, "Command line"; doc/benchmarks.md,
+"Partitioning"): each method runs a deck on 2 and 3 ranks to the 1-rank result (to the solver's
+tolerance), prints its balance line, and after a cut the new DOF balance; a wrong name is an input
+error (exit 2)."""
+import re
+import sys
+
+import h5py
+import numpy as np
+
+from cli_helpers import BEAM, Checks, run, tempdir, write
+
+# The beam 40 x 8 x 8 cells (5 super-blocks of 8), multigrid, cut through at x = 0.55 by a blade
+# along the beam's width that stops short of the bottom: the copies it adds sit on one side.
+DECK = (BEAM.replace("{h: 0.1, dims: [10, 2, 2]}", "{h: 0.025, dims: [40, 8, 8]}")
+        .replace("solver: {type: direct}", "solver: {type: gmg, rtol: 1.0e-10}")
+        + "cuts:\n  - blade: {polygon: [[0.55, -0.1, 0.05], [0.55, 0.3, 0.05], [0.55, 0.3, 0.3], "
+          "[0.55, -0.1, 0.3]]}\n")
+
+
+def displacement(path):
+    with h5py.File(path, "r") as f:
+        return f["steps/000001/displacement"][()]
+
+
+def main():
+    check = Checks()
+    d = tempdir()
+    deck = write(d, "beam.yaml", DECK + f"output: {{directory: {d}/one, name: r}}\n")
+    rc, out, err = run([deck])
+    check(rc == 0 and "partition" not in out, f"1 rank: no partition line (rc {rc}) {err[-300:]}")
+    u1 = displacement(f"{d}/one/r.h5") if rc == 0 else None
+    for method in ("metis", "ptscotch", "sfc"):
+        for ranks in (2, 3):
+            out_dir = f"{d}/{method}{ranks}"
+            rc, out, err = run([deck, "-hexcut_partition", method, "-hexcut_output_directory", out_dir],
+                               ranks=ranks)
+            m = re.search(rf"partition {method}, super-blocks of (\d+): cells max/mean ([\d.]+), DOFs max/mean "
+                          r"([\d.]+), (\d+) links between ranks", out)
+            cut = re.search(r"disconnected \d+ links; \d+ piece\(s\), \d+ vertex copies \(DOFs max/mean over ranks "
+                            r"([\d.]+)\)", out)
+            ok = rc == 0 and m and cut
+            check(ok, f"{method} on {ranks} ranks runs and prints its balance before and after the cut "
+                      f"({m and m.groups()}, {cut and cut.groups()}) {err[-300:]}")
+            if not ok or u1 is None:
+                continue
+            # 2560 cells in 5 blocks of 8^3 (halved to 4^3 for 3 ranks: 40 blocks): the balance is
+            # what whole blocks allow, and whole block faces (sb x sb links) lie between ranks.
+            sb, cells, links = int(m.group(1)), float(m.group(2)), int(m.group(4))
+            check(sb == (8 if ranks == 2 else 4) and 1.0 <= cells <= 1.25 and links % (sb * sb) == 0 and
+                  64 <= links <= 2 * 40 * 16,
+                  f"{method}, {ranks} ranks: super-blocks of {sb}, cells max/mean {cells}, {links} links "
+                  "between ranks")
+            u = displacement(f"{out_dir}/r.h5")
+            err_rel = np.max(np.abs(u - u1)) / np.max(np.abs(u1))
+            check(err_rel < 1e-7, f"{method}, {ranks} ranks: the 1-rank displacements to {err_rel:.1e}")
+    rc, out, err = run([deck, "-hexcut_partition", "parmetis"], ranks=2)
+    check(rc == 2 and "-hexcut_partition must be metis, ptscotch or sfc, got 'parmetis'" in err,
+          f"-hexcut_partition parmetis: exit 2 naming the choices (rc {rc}) {err[-300:]}")
+    return check.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
