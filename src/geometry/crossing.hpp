@@ -21,8 +21,10 @@ struct Crossing {
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // unit, pointing out of the body
 };
 
-/// The boundary crossing on the segment from `inside` to `outside`, by bisection on
-/// inside_after() (`iterations` halvings: 30 resolve 1e-9 of the segment). The normal is
+/// The boundary crossing on the segment from `inside` to `outside`: the exact intersection
+/// with the deciding shape's surface where the shape offers one (Shape::surface_crossing:
+/// triangle meshes) and membership flips across it, else by bisection on inside_after()
+/// (`iterations` halvings: 30 resolve 1e-9 of the segment). The normal is
 /// the outward normal (Shape::outward_normal) of the operation whose surface is crossed:
 /// an add's shape as is, a subtract's reversed. Where that shape has none (images), the
 /// segment's direction. nullopt when `inside` is not inside or `outside` not outside.

@@ -25,6 +25,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -49,6 +50,44 @@ inline double solid_angle(const Eigen::Vector3d& p, const Tri& t) {
   const double num = a.dot(b.cross(c));
   const double den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
   return 2.0 * std::atan2(num, den);
+}
+
+// Does the segment a + s d, s in [0, 1], meet the box? (Slabs per axis.)
+bool segment_meets_box(const Eigen::Vector3d& a, const Eigen::Vector3d& d,
+                       const Eigen::AlignedBox3d& box) {
+  double s0 = 0.0, s1 = 1.0;
+  for (int k = 0; k < 3; ++k) {
+    if (d[k] == 0.0) {
+      if (a[k] < box.min()[k] || a[k] > box.max()[k]) return false;
+      continue;
+    }
+    double lo = (box.min()[k] - a[k]) / d[k], hi = (box.max()[k] - a[k]) / d[k];
+    if (lo > hi) std::swap(lo, hi);
+    s0 = std::max(s0, lo);
+    s1 = std::min(s1, hi);
+    if (s0 > s1) return false;
+  }
+  return true;
+}
+
+// Parameter s in [0, 1] where the segment a + s d passes through triangle t (edges
+// included), by Moller and Trumbore's barycentric solve; nullopt when it misses or lies in
+// the triangle's plane.
+std::optional<double> segment_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& d,
+                                       const Tri& t) {
+  const Eigen::Vector3d e1 = t[1] - t[0], e2 = t[2] - t[0];
+  const Eigen::Vector3d q = d.cross(e2);
+  const double det = e1.dot(q);
+  if (!(std::abs(det) > 1e-300)) return std::nullopt;
+  const Eigen::Vector3d r = a - t[0];
+  const double u = r.dot(q) / det;
+  if (u < 0.0 || u > 1.0) return std::nullopt;
+  const Eigen::Vector3d w = r.cross(e1);
+  const double v = d.dot(w) / det;
+  if (v < 0.0 || u + v > 1.0) return std::nullopt;
+  const double s = e2.dot(w) / det;
+  if (s < 0.0 || s > 1.0) return std::nullopt;
+  return s;
 }
 
 // Closest point to p on triangle t, by the Voronoi regions of its corners, edges and
@@ -162,6 +201,37 @@ class MeshSolid final : public Shape {
   void classify_cells(const LatticeSpec& spec, const std::array<int, 3>& lo,
                       const std::array<int, 3>& hi,
                       std::vector<std::uint8_t>& inside) const override;
+
+  // The triangles the segment a-b passes through, by a BVH descent pruned by the segment's
+  // slab test against the node boxes, and the Moller-Trumbore test per triangle (Ericson,
+  // "Real-Time Collision Detection", sec. 5.3.6). One hit: its parameter; none or several
+  // (a sliver thinner than the segment, a hole, a hit on a shared edge counted twice):
+  // nullopt, and the caller keeps bisecting.
+  std::optional<double> surface_crossing(const Eigen::Vector3d& a,
+                                         const Eigen::Vector3d& b) const override {
+    const Eigen::Vector3d d = b - a;
+    std::optional<double> hit;
+    int hits = 0;
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (!segment_meets_box(a, d, node.box)) continue;
+      if (node.left >= 0) {
+        stack[top++] = node.left;
+        stack[top++] = node.right;
+        continue;
+      }
+      for (int t = node.begin; t < node.end; ++t) {
+        const auto s = segment_triangle(a, d, tris_[t]);
+        if (!s) continue;
+        if (++hits > 1) return std::nullopt;
+        hit = s;
+      }
+    }
+    return hit;
+  }
 
   // Normal of the nearest non-degenerate triangle (triangles are outward-oriented),
   // found by a best-first descent of the BVH pruned by box distance.

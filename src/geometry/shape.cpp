@@ -8,6 +8,11 @@ Eigen::Vector3d Shape::outward_normal(const Eigen::Vector3d&) const {
   return Eigen::Vector3d::Zero();
 }
 
+std::optional<double> Shape::surface_crossing(const Eigen::Vector3d&,
+                                              const Eigen::Vector3d&) const {
+  return std::nullopt;
+}
+
 void Shape::classify_cells(const LatticeSpec& spec, const std::array<int, 3>& lo,
                            const std::array<int, 3>& hi, std::vector<std::uint8_t>& inside) const {
   const std::int64_t nx = std::max(0, hi[0] - lo[0]);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "common/lattice_spec.hpp"
@@ -35,6 +36,12 @@ class Shape {
   /// geometry/crossing). Zero when the shape has no normal to offer (the default, e.g. voxel
   /// images).
   virtual Eigen::Vector3d outward_normal(const Eigen::Vector3d& p) const;
+  /// Where the segment from a to b crosses the shape's surface, as s in [0, 1] (the point
+  /// a + s (b - a)), for shapes that can compute it exactly and find exactly one crossing
+  /// there; nullopt otherwise (the default: no such test, or none or several crossings).
+  /// geometry/crossing uses it instead of bisecting; it checks the answer by membership.
+  virtual std::optional<double> surface_crossing(const Eigen::Vector3d& a,
+                                                 const Eigen::Vector3d& b) const;
 
   /// Classifies the cells of the half-open index box [lo, hi) of `spec` by their centre:
   /// inside[(i-lo0) + nx*((j-lo1) + ny*(k-lo2))] = contains(cell centre), with

@@ -78,8 +78,8 @@ TEST(Crossing, PrimitiveNormals) {
   expect_near(slab->outward_normal(V(0, 0, -0.09)), V(0, 0, -1), 1e-12);
 }
 
-TEST(Crossing, MeshUsesTheNearestTriangleNormal) {
-  // The unit cube as 12 outward triangles.
+/// The unit cube as 12 outward triangles (each face split along a diagonal).
+TriangleMesh cube_mesh() {
   TriangleMesh m;
   for (int v = 0; v < 8; ++v) m.vertices.emplace_back(v & 1, (v >> 1) & 1, (v >> 2) & 1);
   const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
@@ -88,11 +88,43 @@ TEST(Crossing, MeshUsesTheNearestTriangleNormal) {
     m.triangles.push_back({q[0], q[1], q[2]});
     m.triangles.push_back({q[0], q[2], q[3]});
   }
-  const std::vector<GeometryOp> ops{{OpMode::add, make_mesh_solid(m), 0}};
+  return m;
+}
+
+TEST(Crossing, MeshUsesTheNearestTriangleNormal) {
+  const std::vector<GeometryOp> ops{{OpMode::add, make_mesh_solid(cube_mesh()), 0}};
   const auto x = find_crossing(ops, V(0.5, 0.3, 0.6), V(0.5, 1.3, 0.6));
   ASSERT_TRUE(x);
   EXPECT_NEAR(x->t, 0.7, 1e-8);
   expect_near(x->normal, V(0, 1, 0), 1e-12);
+}
+
+TEST(Crossing, MeshCrossingIsTheExactSegmentTriangleIntersection) {
+  const auto cube = make_mesh_solid(cube_mesh());
+  // One face crossed: its parameter, exactly.
+  const auto s = cube->surface_crossing(V(0.5, 0.3, 0.6), V(0.5, 1.3, 0.6));
+  ASSERT_TRUE(s);
+  EXPECT_NEAR(*s, 0.7, 1e-15);
+  // Two faces, none, or a point on the diagonal two triangles share: no single answer.
+  EXPECT_FALSE(cube->surface_crossing(V(-0.5, 0.3, 0.6), V(1.5, 0.3, 0.6)));
+  EXPECT_FALSE(cube->surface_crossing(V(2, 0.3, 0.6), V(3, 0.3, 0.6)));
+  EXPECT_FALSE(cube->surface_crossing(V(0.5, 0.5, 0.5), V(0.5, 1.5, 0.5)));
+  // find_crossing ends its bisection with it: t exact to round-off (bisection alone stops
+  // at 2^-31 of the segment), and on the shared diagonal it bisects on to 1e-9.
+  const std::vector<GeometryOp> ops{{OpMode::add, cube, 0}};
+  const auto x = find_crossing(ops, V(0.5, 0.3, 0.6), V(0.5, 1.3, 0.6));
+  ASSERT_TRUE(x);
+  EXPECT_NEAR(x->t, 0.7, 1e-13);
+  const auto y = find_crossing(ops, V(0.5, 0.5, 0.5), V(0.5, 1.5, 0.5));
+  ASSERT_TRUE(y);
+  EXPECT_NEAR(y->t, 0.5, 1e-9);
+  // A subtracted mesh: the cavity's surface, crossed from the material into it.
+  const std::vector<GeometryOp> cavity{{OpMode::add, make_box(V(-1, -1, -1), V(2, 2, 2)), 0},
+                                       {OpMode::subtract, cube, 0}};
+  const auto z = find_crossing(cavity, V(0.5, 1.7, 0.6), V(0.5, 0.7, 0.6));
+  ASSERT_TRUE(z);
+  EXPECT_NEAR(z->t, 0.7, 1e-13);
+  expect_near(z->normal, V(0, -1, 0), 1e-12);
 }
 
 TEST(Crossing, ImagesFallBackToTheSegmentDirection) {
