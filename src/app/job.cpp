@@ -115,11 +115,17 @@ void print_partition(MPI_Comm comm, const analysis::Model& model, const HexcutOp
   const auto s = topology::partition_stats(model.lattice, model.copies, P);
   PetscPrintf(PETSC_COMM_SELF,
               "hexcut: partition %s, super-blocks of %d: cells max/mean %.3f, DOFs max/mean %.3f, "
-              "%lld links between ranks, ghost DOFs %.2f%% of all (largest rank %lld)\n",
+              "%lld links between ranks, ghost DOFs %.2f%% of all (%lld on the rank with most)\n",
               topology::method_name(o.partition), P.superblock, double(s.max_cells) / s.mean_cells,
               double(s.max_copies) / s.mean_copies, (long long)s.cut_links,
               100.0 * double(s.ghosts) / double(model.copies.num_copies),
               3 * (long long)s.max_ghosts);
+  if (s.empty_ranks > 0)
+    PetscFPrintf(
+        PETSC_COMM_SELF, PETSC_STDERR,
+        "hexcut: warning: %lld of %d ranks hold no cells (too few super-blocks of %d cells "
+        "per side; -hexcut_superblock smaller, or fewer ranks)\n",
+        (long long)s.empty_ranks, P.num_ranks, P.superblock);
 }
 
 /// Warnings of the deck and of the model build, once (rank 0, stderr).
@@ -261,6 +267,9 @@ void run_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions& job) {
   PetscTime(&t_start);
   // Before anything is written: the options, then the result file's lock and paths.
   const auto options = setup_options(deck_in);
+  if (!job.restart_path.empty() && !options.hexcut.output_directory.empty())
+    throw InputError("--restart continues " + job.restart_path +
+                     " in place; -hexcut_output_directory does not apply");
   const deck::Deck deck = apply_overrides(deck_in, options.hexcut);
   print_overrides(comm, deck, options.hexcut);
   const std::int64_t max_steps = options.hexcut.max_steps;

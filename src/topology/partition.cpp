@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 
 namespace hexcut::topology {
@@ -201,9 +202,14 @@ Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, in
       sb /= 2;
     }
     P.superblock = sb;
+    // Identical on every rank (replicated lattice): an input error, reported once.
     if (int(block_id.size()) < num_ranks)
-      throw std::runtime_error("cannot partition " + std::to_string(n) + " cells over " +
-                               std::to_string(num_ranks) + " ranks: too few cells");
+      throw InputError(
+          "cannot partition " + std::to_string(n) + " cells over " + std::to_string(num_ranks) +
+          " ranks: whole super-blocks go to ranks, and "
+          "there are " +
+          std::to_string(block_id.size()) + " (of " + std::to_string(sb) +
+          " cells per side); run on at most " + std::to_string(block_id.size()) + " ranks");
     auto G = block_graph(block_id, nb, block_of_cell);
     const auto part = method == PartitionMethod::metis      ? metis_parts(G, num_ranks)
                       : method == PartitionMethod::ptscotch ? ptscotch_parts(G, num_ranks, comm)
@@ -241,6 +247,7 @@ PartitionStats partition_stats(const lattice::Lattice& L, const VertexCopies& V,
   s.max_cells = *std::max_element(cells.begin(), cells.end());
   s.max_copies = *std::max_element(copies.begin(), copies.end());
   s.max_ghosts = *std::max_element(ghosts.begin(), ghosts.end());
+  s.empty_ranks = std::count(cells.begin(), cells.end(), std::int64_t(0));
   s.ghosts = std::int64_t(pairs.size());
   s.mean_cells = double(L.num_cells()) / R;
   s.mean_copies = double(V.num_copies) / R;

@@ -36,8 +36,8 @@ struct Partition {
 /// super-blocks per rank, but not below `min_superblock` (composite elements of level l need
 /// 2^l: a composite element must lie on one rank). PT-Scotch partitions the super-block graph
 /// distributed over `comm` (collective on it; any size, the result is gathered on every rank);
-/// METIS and the curve compute it on every rank alike. Throws std::runtime_error if the body
-/// cannot be split.
+/// METIS and the curve compute it on every rank alike. Throws InputError when there are fewer
+/// super-blocks than ranks.
 Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies& copies,
                             int num_ranks, int superblock, int min_superblock = 1,
                             PartitionMethod method = PartitionMethod::metis,
@@ -49,6 +49,7 @@ Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies&
 /// moves).
 struct PartitionStats {
   std::int64_t max_cells = 0, max_copies = 0, cut_links = 0, ghosts = 0, max_ghosts = 0;
+  std::int64_t empty_ranks = 0;  // ranks without a cell (a body of few super-blocks)
   double mean_cells = 0, mean_copies = 0;
 };
 PartitionStats partition_stats(const lattice::Lattice& lattice, const VertexCopies& copies,

@@ -54,6 +54,14 @@ def main():
             u = displacement(f"{out_dir}/r.h5")
             err_rel = np.max(np.abs(u - u1)) / np.max(np.abs(u1))
             check(err_rel < 1e-7, f"{method}, {ranks} ranks: the 1-rank displacements to {err_rel:.1e}")
+    # More ranks than super-blocks: an input error, once, naming how many ranks would do.
+    two_cells = (BEAM.replace("{h: 0.1, dims: [10, 2, 2]}", "{h: 0.1, dims: [2, 1, 1]}")
+                 .replace("max: [1.0, 0.2, 0.2]", "max: [0.2, 0.1, 0.1]").replace("point: [1.0, 0, 0]", "point: [0.2, 0, 0]"))
+    tiny = write(d, "tiny.yaml", two_cells + f"output: {{directory: {d}/tiny, name: r}}\n")
+    for method in ("metis", "sfc"):
+        rc, out, err = run([tiny, "--check", "-hexcut_partition", method], ranks=3)
+        check(rc == 2 and err.count("cannot partition 2 cells over 3 ranks") == 1 and "at most 2 ranks" in err,
+              f"{method}: 3 ranks for 2 super-blocks exit 2 with one message (rc {rc}) {err[-400:]}")
     rc, out, err = run([deck, "-hexcut_partition", "parmetis"], ranks=2)
     check(rc == 2 and "-hexcut_partition must be metis, ptscotch or sfc, got 'parmetis'" in err,
           f"-hexcut_partition parmetis: exit 2 naming the choices (rc {rc}) {err[-300:]}")

@@ -1,5 +1,5 @@
 """The command line's changes to a deck and the scaling studies built on them (doc/user-guide.md,
-"Running"; doc/benchmarks.md, "Scaling"): -hexcut_refine R runs the deck's lattice with cells R
+"Command line"; doc/benchmarks.md, "Scaling"): -hexcut_refine R runs the deck's lattice with cells R
 times smaller (the same result as a deck written with h / R and dims * R), -hexcut_output_directory
 DIR writes the result into DIR and leaves the deck's own result alone; wrong values are input
 errors (exit 2) before anything is written. scripts/study/strong and weak run a deck on 1 and 2
@@ -63,6 +63,11 @@ def main():
     # Without --overwrite the result there is protected like any other.
     rc, out, err = run([beam, "-hexcut_output_directory", elsewhere])
     check(rc == 2 and "r.h5" in err, f"a second run into it without --overwrite is refused (rc {rc}) {err[-200:]}")
+
+    # --restart continues its file in place: an output directory is refused, not ignored.
+    rc, out, err = run([beam, "--restart", f"{d}/beam/r.h5", "-hexcut_output_directory", elsewhere])
+    check(rc == 2 and "-hexcut_output_directory does not apply" in err,
+          f"--restart with -hexcut_output_directory: exit 2 (rc {rc}) {err[-200:]}")
 
     # Wrong values: exit 2, nothing written.
     for args, message in ((["-hexcut_refine", "0"], "-hexcut_refine must be a number > 0, got '0'"),

@@ -109,7 +109,7 @@ TEST(Crossing, MeshCrossingIsTheExactSegmentTriangleIntersection) {
   EXPECT_FALSE(cube->surface_crossing(V(-0.5, 0.3, 0.6), V(1.5, 0.3, 0.6)));
   EXPECT_FALSE(cube->surface_crossing(V(2, 0.3, 0.6), V(3, 0.3, 0.6)));
   EXPECT_FALSE(cube->surface_crossing(V(0.5, 0.5, 0.5), V(0.5, 1.5, 0.5)));
-  // find_crossing ends its bisection with it: t exact to round-off (bisection alone stops
+  // find_crossing takes it instead of bisecting: t exact to round-off (bisection alone stops
   // at 2^-31 of the segment), and on the shared diagonal it bisects on to 1e-9.
   const std::vector<GeometryOp> ops{{OpMode::add, cube, 0}};
   const auto x = find_crossing(ops, V(0.5, 0.3, 0.6), V(0.5, 1.3, 0.6));
