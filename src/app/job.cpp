@@ -229,6 +229,8 @@ void check_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions&) {
   const auto options = setup_options(deck_in);
   const deck::Deck deck = apply_overrides(deck_in, options.hexcut);
   print_overrides(comm, deck, options.hexcut);
+  if (const auto problem = output_directory_problem(deck.output.directory); !problem.empty())
+    throw InputError(problem);
   if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};  // its checks
   an::Model model;
   throw_on_petsc_error(

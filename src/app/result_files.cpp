@@ -53,6 +53,19 @@ std::string hostname() {
 
 }  // namespace
 
+std::string output_directory_problem(const std::string& directory) {
+  // The nearest part of the path that exists must be a writable directory: then every
+  // missing part below it can be created.
+  std::error_code ec;
+  fs::path p = fs::absolute(directory, ec);
+  while (!p.empty() && !fs::exists(p, ec) && p != p.parent_path()) p = p.parent_path();
+  const std::string head = "output directory '" + directory +
+                           "' (output.directory, or -hexcut_output_directory) cannot be used: ";
+  if (!fs::is_directory(p, ec)) return head + p.string() + " is not a directory";
+  if (::access(p.c_str(), W_OK | X_OK) != 0) return head + p.string() + ": " + std::strerror(errno);
+  return "";
+}
+
 std::string ResultLock::path_for(const std::string& result_path) {
   return stem_of(result_path) + ".lock";
 }
@@ -63,7 +76,12 @@ ResultLock::ResultLock(MPI_Comm comm, const std::string& result_path) {
   on_rank0_or_throw(comm, [&]() -> std::string {
     const auto lock = path_for(result_path);
     const auto dir = fs::path(lock).parent_path();
-    if (!dir.empty()) fs::create_directories(dir);
+    if (!dir.empty()) {
+      if (auto problem = output_directory_problem(dir.string()); !problem.empty()) return problem;
+      std::error_code ec;
+      fs::create_directories(dir, ec);
+      if (ec) return "cannot create the output directory " + dir.string() + ": " + ec.message();
+    }
     fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) return "cannot create the lock file " + lock + ": " + std::strerror(errno);
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
@@ -116,7 +134,10 @@ ResultPaths plan_result(MPI_Comm comm, const deck::Deck& deck, const JobOptions&
   p.final_path = p.write_path = result_path(deck);
   const bool overwrite = options.overwrite || deck.output.overwrite;
   on_rank0_or_throw(comm, [&]() -> std::string {
-    fs::create_directories(deck.output.directory);
+    std::error_code ec;
+    fs::create_directories(deck.output.directory, ec);
+    if (ec)
+      return "cannot create the output directory " + deck.output.directory + ": " + ec.message();
     if (!fs::exists(p.final_path)) return "";
     if (!overwrite)
       return deck.path + ":" + std::to_string(deck.output.where.line) + ": " + p.final_path +

@@ -69,6 +69,14 @@ def main():
     check(rc == 2 and "-hexcut_output_directory does not apply" in err,
           f"--restart with -hexcut_output_directory: exit 2 (rc {rc}) {err[-200:]}")
 
+    # An output directory that cannot be made (a file is in the way): exit 2 from --check
+    # and from the run, naming it.
+    blocker = write(d, "a_file", "not a directory\n")
+    for extra in (["--check"], []):
+        rc, out, err = run([beam, *extra, "-hexcut_output_directory", blocker + "/sub"])
+        check(rc == 2 and "cannot be used" in err and "is not a directory" in err,
+              f"{' '.join(extra) or 'run'}: an output directory under a file exits 2 (rc {rc}) {err[-200:]}")
+
     # Wrong values: exit 2, nothing written.
     for args, message in ((["-hexcut_refine", "0"], "-hexcut_refine must be a number > 0, got '0'"),
                           (["-hexcut_refine", "-2"], "-hexcut_refine must be a number > 0"),
