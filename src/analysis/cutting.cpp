@@ -152,8 +152,7 @@ std::vector<Piece> find_pieces(MPI_Comm comm, const Model& M) {
   for (std::int32_t c = 0; c < L.num_cells(); ++c)
     for (int d = 0; d < 3; ++d) {
       if (!L.linked(c, d)) continue;
-      const auto& p = L.ijk[c];
-      const auto nb = L.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+      const auto nb = L.neighbour(c, d);
       if (nb >= 0) topology::unite(root, c, nb);
     }
   std::vector<int> piece_of_root(L.num_cells(), -1);

@@ -3,7 +3,6 @@
 #include <petscsys.h>
 #include <petsctime.h>
 
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -62,12 +61,10 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
   // The partition stays (a cut changes links, not cells); the copies it adds may unbalance it.
   std::string balance;
   if (model.partition.num_ranks > 1) {
-    std::vector<std::int64_t> owned(model.partition.num_ranks, 0);
-    for (int rank : model.partition.copy_rank) ++owned[rank];
+    const auto s = topology::partition_stats(model.lattice, model.copies, model.partition);
     char buf[64];
     std::snprintf(buf, sizeof buf, " (DOFs max/mean over ranks %.3f)",
-                  double(*std::max_element(owned.begin(), owned.end())) * double(owned.size()) /
-                      double(model.copies.num_copies));
+                  double(s.max_copies) / s.mean_copies);
     balance = buf;
   }
   PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies%s\n",

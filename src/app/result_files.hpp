@@ -39,11 +39,11 @@ struct ResultPaths {
   bool replaces = false;   // write_path != final_path: rename at the end (commit_result)
 };
 
-/// "output.directory/NAME.h5" of a deck.
 /// Why the output directory cannot be created and written (its nearest existing part is not a
 /// writable directory), or "" when it can. --check reports it; a run refuses to start.
 std::string output_directory_problem(const std::string& directory);
 
+/// "output.directory/NAME.h5" of a deck.
 std::string result_path(const deck::Deck& deck);
 
 /// Decides where the run writes (the lock on final_path must be held). Creates the output

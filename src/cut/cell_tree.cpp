@@ -60,10 +60,9 @@ void CellTree::refit(const lattice::Lattice& lattice, const std::vector<Eigen::V
     for (auto k = n.begin; k < n.end; ++k) {
       const auto c = order_[k];
       n.box.extend(centres[c]);
-      const auto& p = lattice.ijk[c];
       for (int d = 0; d < 3; ++d) {
         if (!lattice.linked(c, d)) continue;
-        const auto nb = lattice.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+        const auto nb = lattice.neighbour(c, d);
         if (nb >= 0) n.box.extend(centres[nb]);
       }
     }

@@ -42,10 +42,9 @@ std::vector<lattice::CutLink> find_crossed_links(const lattice::Lattice& lattice
     box.extend(tri.b);
     box.extend(tri.c);
     tree.query(box, [&](std::int32_t c) {
-      const auto& p = lattice.ijk[c];
       for (int d = 0; d < 3; ++d) {
         if (!lattice.linked(c, d) || hits.count({c, d})) continue;
-        const auto nb = lattice.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+        const auto nb = lattice.neighbour(c, d);
         if (nb < 0) continue;
         if (const auto t = segment_crosses(centres[c], centres[nb], tri))
           hits[{c, d}] = {c, d, *t, {normal.x(), normal.y(), normal.z()}, cut_id};

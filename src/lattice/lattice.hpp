@@ -45,6 +45,12 @@ struct Lattice {
       return -1;
     return cell_at[spec.cell_index(i, j, k)];
   }
+  /// Cell c's face neighbour on the + side in direction d (0,1,2), or -1 when empty or
+  /// outside the lattice.
+  std::int32_t neighbour(std::int32_t c, int d) const {
+    const auto& p = ijk[c];
+    return find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+  }
   /// Is cell c linked to its face neighbour in direction d (0,1,2) on the + side?
   bool linked(std::int32_t c, int d) const { return links[c] & (1u << d); }
 };

@@ -231,8 +231,7 @@ PartitionStats partition_stats(const lattice::Lattice& L, const VertexCopies& V,
   for (std::int32_t c = 0; c < L.num_cells(); ++c)
     for (int d = 0; d < 3; ++d)
       if (L.linked(c, d)) {
-        const auto& p = L.ijk[c];
-        const int nb = L.find(p[0] + (d == 0), p[1] + (d == 1), p[2] + (d == 2));
+        const auto nb = L.neighbour(c, d);
         if (nb >= 0 && P.cell_rank[nb] != P.cell_rank[c]) ++s.cut_links;
       }
   // Ghosts: distinct (rank, copy) pairs of a cell's corners the cell's rank does not own.
