@@ -22,8 +22,8 @@ namespace hexcut::assembly {
 struct CellData {
   double h = 1.0;
   std::vector<double> lambda, mu, rho;  // per local cell
-  std::vector<double> rotation;         // 9 per local cell, row-major
-  bool identity_rotations = true;       // every rotation is I (linear runs)
+  std::vector<double> rotation;         // 9 per local cell, row-major; empty when identity
+  bool identity_rotations = true;       // every rotation is I (linear runs): none stored
   // Rotation groups (composite elements, doc/theory.md "Composite elements"): per local cell
   // its group; the cells of a group (all on this rank) share one rotation, the polar factor
   // of their mean centre deformation gradient (Wu 2014, eq. 4.7). Empty: each cell its own.
@@ -53,7 +53,7 @@ struct OperatorWeights {
   bool lumped_mass = true;
 };
 
-/// Sets every rotation to the identity (linear elasticity).
+/// Sets every rotation to the identity (linear elasticity): cells.rotation is emptied.
 void set_identity_rotations(CellData& cells);
 
 /// The rotation of every local cell (9 each into R, row-major) at the displacement of the local

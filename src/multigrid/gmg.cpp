@@ -134,12 +134,20 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
       PetscCall(topology::create_dm(comm, lev.layout, &d->dm));
       d->own_dm = true;
     }
-    PetscCall(DMCreateGlobalVector(d->dm, &d->b));
-    PetscCall(VecDuplicate(d->b, &d->x));
-    PetscCall(VecDuplicate(d->b, &d->r));
-    PetscCall(VecDuplicate(d->b, &d->tmp));
-    PetscCall(VecDuplicate(d->b, &d->dir));
-    PetscCall(VecDuplicate(d->b, &d->mask));
+    PetscCall(DMCreateGlobalVector(d->dm, &d->r));
+    PetscCall(VecDuplicate(d->r, &d->tmp));
+    PetscCall(VecDuplicate(d->r, &d->dir));
+    PetscCall(VecDuplicate(d->r, &d->mask));
+    if (l == opt_.first_level) {
+      // No storage: cycle() places the caller's b and x in them.
+      PetscInt n;
+      PetscCall(VecGetLocalSize(d->r, &n));
+      PetscCall(VecCreateMPIWithArray(comm, 3, n, PETSC_DETERMINE, nullptr, &d->b));
+      PetscCall(VecCreateMPIWithArray(comm, 3, n, PETSC_DETERMINE, nullptr, &d->x));
+    } else {
+      PetscCall(VecDuplicate(d->r, &d->b));
+      PetscCall(VecDuplicate(d->r, &d->x));
+    }
     PetscCall(DMCreateLocalVector(d->dm, &d->xl));
     PetscCall(VecDuplicate(d->xl, &d->yl));
     const auto& D = lev.layout;
@@ -188,9 +196,21 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     const auto I = hierarchy::interpolation(levels_[l], levels_[l + 1], rank);
     const auto& fine = levels_[l].layout;
     const auto& coarse = levels_[l + 1].layout;
+    // Exact preallocation: a row holds 1-8 weights (3.4 on average), and AIJ keeps the
+    // preallocated length after assembly, so a uniform 8 + 8 would store 16 per row.
+    const PetscInt fine_begin = fine.first_owned_block(), coarse_begin = coarse.first_owned_block();
+    const PetscInt coarse_end = coarse_begin + coarse.num_owned;
+    std::vector<PetscInt> d_nnz(fine.num_owned, 0), o_nnz(fine.num_owned, 0);
+    for (std::size_t i = 0; i < I.fine.size(); ++i) {
+      const PetscInt row = fine.global_block[I.fine[i]] - fine_begin;
+      for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j) {
+        const PetscInt col = coarse.global_block[I.coarse[i][j]];
+        ++(col >= coarse_begin && col < coarse_end ? d_nnz : o_nnz)[row];
+      }
+    }
     Mat P;
     PetscCall(MatCreateAIJ(comm, fine.num_owned, coarse.num_owned, PETSC_DETERMINE, PETSC_DETERMINE,
-                           8, nullptr, 8, nullptr, &P));
+                           0, d_nnz.data(), 0, o_nnz.data(), &P));
     for (std::size_t i = 0; i < I.fine.size(); ++i) {
       const PetscInt row = fine.global_block[I.fine[i]];
       for (int j = 0; j < 8 && I.coarse[i][j] >= 0; ++j)
@@ -290,8 +310,12 @@ void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full
   d.dirty.assign(n, full ? 1 : 0);
   if (full) return;
   const double tol = opt_.rebuild_tolerance;
+  // No rotations stored (linear runs): none moved (a change to or from identity is a full
+  // rebuild: update() compares the sizes).
+  const bool rotations = !cells.rotation.empty();
   for (std::size_t e = 0; e < n; ++e) {
     d.dirty[e] = !chain_missing_.empty() && chain_missing_[e];
+    if (!rotations) continue;
     const double* now = &cells.rotation[9 * e];
     const double* then = &built_rotation_[9 * e];
     for (int k = 0; k < 9 && !d.dirty[e]; ++k)
@@ -477,7 +501,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
       // Carried blocks are new to the levels below too.
       if (!carried.empty()) d.stored->mark_all_dirty();
     }
-    if (l == 1) {
+    if (l == 1 && !cells.rotation.empty()) {
       // The rotations the rebuilt blocks saw: those of all their children.
       const auto& dirty = d.stored->dirty();
       for (std::size_t C = 0; C < dirty.size(); ++C)
@@ -1081,10 +1105,21 @@ PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
 PetscErrorCode Multigrid::cycle(Vec b, Vec x) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
-  const int first = opt_.first_level;
-  PetscCall(VecCopy(b, data_[first]->b));
-  PetscCall(cycle_level(first, true));
-  PetscCall(VecCopy(data_[first]->x, x));
+  // The first level's b and x are the caller's arrays (cycle_level only reads b there):
+  // two fewer vectors of the largest level, and no copies in or out.
+  auto& d = *data_[opt_.first_level];
+  const PetscScalar* ba;
+  PetscScalar* xa;
+  PetscCall(VecGetArrayRead(b, &ba));
+  PetscCall(VecGetArray(x, &xa));
+  PetscCall(VecPlaceArray(d.b, ba));
+  PetscCall(VecPlaceArray(d.x, xa));
+  const PetscErrorCode ierr = cycle_level(opt_.first_level, true);
+  PetscCall(VecResetArray(d.b));
+  PetscCall(VecResetArray(d.x));
+  PetscCall(VecRestoreArray(x, &xa));
+  PetscCall(VecRestoreArrayRead(b, &ba));
+  PetscCall(ierr);
   PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

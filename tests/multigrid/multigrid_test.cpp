@@ -1080,5 +1080,50 @@ TEST(Multigrid, CellsWithoutAKindMatchTheirFormedStiffness) {
   VecDestroy(&y_ref);
 }
 
+TEST(Multigrid, LinearRunsStoreNoRotationsAndTheCycleWorksInTheCallersVectors) {
+  // A linear run keeps no per-cell rotations (72 bytes per cell) and its operators are
+  // still those of R = I: the multigrid's fine operator equals the constrained assembled
+  // matrix, and its coarse blocks stay P^T A P.
+  std::string linear = kBlock;
+  linear.replace(linear.find("corotational"), 12, "linear");
+  const assembly::OperatorWeights w{1.0, 3.0, true};
+  Job job(PETSC_COMM_WORLD, linear, 8, "-gmg_levels 3");
+  auto& C = job.model.cells;
+  assembly::set_identity_rotations(C);
+  EXPECT_TRUE(C.identity_rotations);
+  EXPECT_TRUE(C.rotation.empty());
+  auto* mg = job.sim->multigrid();
+  check_petsc(mg->update(C, w, job.model.boundary.constraints.rows), "update");
+  Mat A;
+  check_petsc(assembly::create_matrix(PETSC_COMM_WORLD, job.model.copies, job.model.layout, &A),
+              "create");
+  HEXCUT_CALL(assembly::assemble_constrained_matrix(job.model.dm, job.model.layout, C, w,
+                                                    job.model.boundary.constraints, A));
+  Vec x, y, y_ref, b0, Mb, Mb2;
+  MatCreateVecs(A, &x, &y);
+  for (Vec* v : {&y_ref, &b0, &Mb, &Mb2}) VecDuplicate(x, v);
+  fill(x, 0.4);
+  MatMult(A, x, y_ref);
+  check_petsc(mg->apply_fine(x, y), "apply_fine");
+  EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "fine operator with R = I";
+  EXPECT_LT(galerkin_mismatch(mg, A), 1e-12);
+  // A rotation-only update with nothing stored rebuilds nothing.
+  check_petsc(mg->update(C, w, job.model.boundary.constraints.rows), "update");
+  EXPECT_EQ(mg->rebuilt_cells(1), 0);
+  // The cycle runs in the caller's arrays: b is left as it was, and two cycles of the same
+  // b give the same x bit for bit (nothing of the first stays in the second).
+  VecCopy(x, b0);
+  VecSet(Mb, 1e300);  // x is overwritten, whatever it held
+  check_petsc(mg->cycle(x, Mb), "cycle");
+  check_petsc(mg->cycle(x, Mb2), "cycle");
+  EXPECT_EQ(rel_diff(b0, x), 0.0) << "b untouched";
+  EXPECT_EQ(rel_diff(Mb, Mb2), 0.0);
+  PetscScalar c;
+  VecDot(x, Mb, &c);
+  EXPECT_GT(c, 0.0);
+  for (Vec* v : {&x, &y, &y_ref, &b0, &Mb, &Mb2}) VecDestroy(v);
+  MatDestroy(&A);
+}
+
 }  // namespace
 }  // namespace hexcut::testing
