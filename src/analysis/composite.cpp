@@ -241,12 +241,12 @@ PetscErrorCode composite_norm(multigrid::Multigrid& mg, Vec r, PetscReal* norm, 
 PetscErrorCode composite_positions(const multigrid::Multigrid& mg, Vec* x) {
   PetscFunctionBeginUser;
   const auto& lev = mg.level(mg.first_level());
-  const auto& D = lev.layout;
+  const auto& D = lev.layout();
   PetscCall(DMCreateGlobalVector(mg.dm(mg.first_level()), x));
   PetscScalar* a;
   PetscCall(VecGetArray(*x, &a));
   for (std::int32_t i = 0; i < D.num_owned; ++i) {
-    const auto& v = lev.copies.vertex[D.copies[i]];
+    const auto& v = lev.copies().vertex[D.copies[i]];
     const Eigen::Vector3d p = lev.graph.spec.vertex_position(v[0], v[1], v[2]);
     for (int d = 0; d < 3; ++d) a[3 * i + d] = p[d];
   }

@@ -62,7 +62,7 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
   const int l = mg.first_level(), s = 1 << l;
   const auto& fine = mg.level(0);
   const auto& lev = mg.level(l);
-  const std::size_t n = lev.layout.cells.size();
+  const std::size_t n = lev.layout().cells.size();
   CompositeElements E;
   E.stiffness.assign(576 * n, 0.0);
   E.gram.assign(64 * n, 0.0);
@@ -70,7 +70,7 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
   E.mu_sum.assign(n, 0.0);
   E.corners.resize(24 * n);
   for (std::size_t e = 0; e < n; ++e) {
-    const auto& p = lev.graph.ijk[lev.layout.cells[e]];
+    const auto& p = lev.graph.ijk[lev.layout().cells[e]];
     for (int a = 0; a < 8; ++a) {
       const auto x = lev.graph.spec.vertex_position(p[0] + (a & 1), p[1] + ((a >> 1) & 1),
                                                     p[2] + ((a >> 2) & 1));
@@ -106,8 +106,8 @@ CompositeElements build_composite_elements(const multigrid::Multigrid& mg,
   for (std::size_t c = 0; c < ce.size(); ++c) {
     const auto e = std::size_t(ce[c]);
     if (copied[e]) continue;
-    const auto& fp = fine.graph.ijk[fine.layout.cells[c]];
-    const auto& cp = lev.graph.ijk[lev.layout.cells[e]];
+    const auto& fp = fine.graph.ijk[fine.layout().cells[c]];
+    const auto& cp = lev.graph.ijk[lev.layout().cells[e]];
     const std::array<int, 3> o{fp[0] - s * cp[0], fp[1] - s * cp[1], fp[2] - s * cp[2]};
     const std::size_t k = std::size_t(o[0] + s * (o[1] + s * o[2]));
     if (!ready[k]) {
@@ -145,7 +145,7 @@ PetscErrorCode composite_midpoint_force(multigrid::Multigrid& mg, const Composit
   PetscFunctionBeginUser;
   const int l = mg.first_level();
   DM dm = mg.dm(l);
-  const auto& D = mg.level(l).layout;
+  const auto& D = mg.level(l).layout();
   const std::size_t n = D.cells.size();
   assembly::LocalValues a0, a1;
   PetscCall(a0.get(dm, u0c));

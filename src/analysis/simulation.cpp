@@ -141,7 +141,7 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc, CompositeCarry
   // form a rotation group (assembly::cell_rotations), so the Galerkin blocks of the rotated
   // fine cells are the element's block rotated, R^ K~ R^T.
   model_.cells.rotation_group = mg_->composite_elements();
-  model_.cells.num_rotation_groups = l > 0 ? std::int32_t(mg_->level(l).layout.cells.size()) : 0;
+  model_.cells.num_rotation_groups = l > 0 ? std::int32_t(mg_->level(l).layout().cells.size()) : 0;
   PetscCall(KSPSetDM(ksp_, mg_->dm(l)));
   PetscCall(KSPSetDMActive(ksp_, PETSC_FALSE));
   PetscCall(composite_positions(*mg_, &composite_coordinates_));
@@ -151,7 +151,7 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc, CompositeCarry
 std::vector<double> Simulation::composite_element_ids() const {
   if (!composite() || !mg_) return {};
   const int l = mg_->first_level();
-  const auto& cells = mg_->level(l).layout.cells;
+  const auto& cells = mg_->level(l).layout().cells;
   const auto& element = mg_->composite_elements();
   std::vector<double> ids(model_.layout.cells.size());
   for (std::size_t e = 0; e < ids.size(); ++e)

@@ -349,8 +349,8 @@ void run_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions& job) {
       PetscPrintf(comm,
                   "hexcut: composite elements of level %d: %d elements, %d DOFs (%.1fx fewer "
                   "than the hexahedra)\n",
-                  mg->first_level(), int(lev.graph.num_cells()), 3 * int(lev.copies.num_copies),
-                  double(model.copies.num_copies) / double(lev.copies.num_copies));
+                  mg->first_level(), int(lev.graph.num_cells()), 3 * int(lev.copies().num_copies),
+                  double(model.copies.num_copies) / double(lev.copies().num_copies));
     }
   }
   // A static body its supports do not hold stops here, before the result file exists.

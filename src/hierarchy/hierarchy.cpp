@@ -82,42 +82,47 @@ double duplication(const topology::CellGraph& g) {
   return double(g.num_cells()) / double(positions) - 1.0;
 }
 
-std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
-                                   const topology::VertexCopies& copies,
+std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::VertexCopies& copies,
                                    const topology::Partition& partition,
                                    const topology::DofLayout& layout, const HierarchyOptions& opt) {
   const int rank = layout.rank;
   std::vector<Level> levels(1);
-  levels[0].graph = fine;
-  levels[0].copies = copies;
-  levels[0].partition = partition;
-  levels[0].layout = layout;
+  levels[0].graph = std::move(fine);
+  // Not owned (an empty deleter): the simulation's.
+  levels[0].copies_ptr = std::shared_ptr<const topology::VertexCopies>(&copies, [](const auto*) {});
+  levels[0].partition_ptr =
+      std::shared_ptr<const topology::Partition>(&partition, [](const auto*) {});
+  levels[0].layout_ptr = std::shared_ptr<const topology::DofLayout>(&layout, [](const auto*) {});
   const int max_levels = 1 + int(std::lround(std::log2(double(std::max(1, partition.superblock)))));
   const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
   while (int(levels.size()) < wanted) {
     const auto& f = levels.back();
     const bool enough = int(levels.size()) >= opt.min_levels;
-    if (opt.levels == 0 && enough && 3 * std::int64_t(f.copies.num_copies) <= opt.coarse_dofs)
+    if (opt.levels == 0 && enough && 3 * std::int64_t(f.copies().num_copies) <= opt.coarse_dofs)
       break;
     Level c;
     c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
     if (opt.levels == 0 && enough && c.graph.num_cells() == f.graph.num_cells()) break;
     // Two levels at least: one level is a direct solve of the fine system.
     if (opt.levels == 0 && enough && levels.size() >= 2 && opt.max_duplication >= 0 &&
-        3 * std::int64_t(f.copies.num_copies) <= opt.duplication_dofs &&
+        3 * std::int64_t(f.copies().num_copies) <= opt.duplication_dofs &&
         duplication(c.graph) > opt.max_duplication)
       break;
-    c.copies = topology::build_vertex_copies(c.graph);
-    c.partition.num_ranks = partition.num_ranks;
-    c.partition.superblock = std::max(1, f.partition.superblock / 2);
-    c.partition.cell_rank.assign(c.graph.num_cells(), 0);
+    auto cc = std::make_shared<topology::VertexCopies>(topology::build_vertex_copies(c.graph));
+    auto cp = std::make_shared<topology::Partition>();
+    cp->num_ranks = partition.num_ranks;
+    cp->superblock = std::max(1, f.partition().superblock / 2);
+    cp->cell_rank.assign(c.graph.num_cells(), 0);
     const auto& par = levels.back().parent;
     for (std::int32_t e = 0; e < f.graph.num_cells(); ++e)
-      c.partition.cell_rank[par[e]] = f.partition.cell_rank[e];
-    c.partition.copy_rank.resize(c.copies.num_copies);
-    for (std::int32_t v = 0; v < c.copies.num_copies; ++v)
-      c.partition.copy_rank[v] = c.partition.cell_rank[c.copies.first_cell[v]];
-    c.layout = topology::build_dof_layout(c.copies, c.partition, rank);
+      cp->cell_rank[par[e]] = f.partition().cell_rank[e];
+    cp->copy_rank.resize(cc->num_copies);
+    for (std::int32_t v = 0; v < cc->num_copies; ++v)
+      cp->copy_rank[v] = cp->cell_rank[cc->first_cell[v]];
+    c.layout_ptr =
+        std::make_shared<const topology::DofLayout>(topology::build_dof_layout(*cc, *cp, rank));
+    c.copies_ptr = std::move(cc);
+    c.partition_ptr = std::move(cp);
     levels.push_back(std::move(c));
   }
   return levels;
@@ -131,7 +136,7 @@ void weights_from_cell(const Level& fine, const Level& coarse, std::int32_t cell
   const int o = octant_of(fine.graph.ijk[cell]);
   const auto C = fine.parent[cell];
   for (int j = 0; j < 8; ++j) {
-    (*ids)[j] = coarse.copies.cell_corners[C][j];
+    (*ids)[j] = coarse.copies().cell_corners[C][j];
     (*w)[j] = transfer_weight(o, q, j);
   }
 }
@@ -141,11 +146,11 @@ void weights_from_cell(const Level& fine, const Level& coarse, std::int32_t cell
 Interpolation interpolation(const Level& fine, const Level& coarse, int rank) {
   Interpolation I;
   // Corner of each copy in its first cell.
-  for (std::int32_t v = 0; v < fine.copies.num_copies; ++v) {
-    if (fine.partition.copy_rank[v] != rank) continue;
-    const auto cell = fine.copies.first_cell[v];
+  for (std::int32_t v = 0; v < fine.copies().num_copies; ++v) {
+    if (fine.partition().copy_rank[v] != rank) continue;
+    const auto cell = fine.copies().first_cell[v];
     int q = 0;
-    while (fine.copies.cell_corners[cell][q] != v) ++q;
+    while (fine.copies().cell_corners[cell][q] != v) ++q;
     std::array<std::int32_t, 8> ids;
     std::array<double, 8> w;
     weights_from_cell(fine, coarse, cell, q, &ids, &w);
@@ -170,12 +175,12 @@ Interpolation interpolation(const Level& fine, const Level& coarse, int rank) {
 double interpolation_mismatch(const Level& fine, const Level& coarse) {
   // For every copy, compare the weight map (coarse copy -> weight) of every incident cell
   // with the one of its first cell.
-  std::vector<std::map<std::int32_t, double>> reference(fine.copies.num_copies);
-  std::vector<char> have(fine.copies.num_copies, 0);
+  std::vector<std::map<std::int32_t, double>> reference(fine.copies().num_copies);
+  std::vector<char> have(fine.copies().num_copies, 0);
   double worst = 0.0;
   for (std::int32_t c = 0; c < fine.graph.num_cells(); ++c)
     for (int q = 0; q < 8; ++q) {
-      const auto v = fine.copies.cell_corners[c][q];
+      const auto v = fine.copies().cell_corners[c][q];
       std::array<std::int32_t, 8> ids;
       std::array<double, 8> w;
       weights_from_cell(fine, coarse, c, q, &ids, &w);

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "topology/cell_graph.hpp"
@@ -23,12 +24,20 @@ namespace hexcut::hierarchy {
 
 enum class Coarsening { components, naive };
 
+/// One level of the hierarchy. Its vertex copies, partition and DOF layout are shared, not
+/// copied: level 0's are the simulation's own (build_hierarchy's arguments, which must
+/// outlive the levels: about 35 bytes per DOF that every rank would otherwise hold twice),
+/// coarse levels own theirs.
 struct Level {
   topology::CellGraph graph;
-  topology::VertexCopies copies;
-  topology::Partition partition;
-  topology::DofLayout layout;
   std::vector<std::int32_t> parent;  // per cell of this level: its cell on the next level
+  std::shared_ptr<const topology::VertexCopies> copies_ptr;
+  std::shared_ptr<const topology::Partition> partition_ptr;
+  std::shared_ptr<const topology::DofLayout> layout_ptr;
+
+  const topology::VertexCopies& copies() const { return *copies_ptr; }
+  const topology::Partition& partition() const { return *partition_ptr; }
+  const topology::DofLayout& layout() const { return *layout_ptr; }
 };
 
 /// The coarse graph of `fine` and the parent of every fine cell.
@@ -53,14 +62,13 @@ struct HierarchyOptions {
 /// blades, in thin walls) make it grow; smooth boundaries do not.
 double duplication(const topology::CellGraph& graph);
 
-/// Builds levels 0..L-1. Level 0 re-uses the simulation's copies, partition and DOF
-/// layout (the layout of `rank`).
+/// Builds levels 0..L-1. Level 0 takes `fine` and refers to the simulation's copies,
+/// partition and DOF layout (the layout of `rank`), which must outlive the levels.
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, or before a level whose duplication
 /// exceeds max_duplication (when >= 0), and never exceeds
 /// log2(partition.superblock) + 1 levels; it builds at least min_levels (if the cap allows).
-std::vector<Level> build_hierarchy(const topology::CellGraph& fine,
-                                   const topology::VertexCopies& copies,
+std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::VertexCopies& copies,
                                    const topology::Partition& partition,
                                    const topology::DofLayout& layout,
                                    const HierarchyOptions& options);

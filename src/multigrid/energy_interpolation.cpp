@@ -96,8 +96,8 @@ PetscErrorCode build_region(MPI_Comm comm, const Level& fine,
                             const std::vector<char>& coarse_irregular, Region* R,
                             std::int64_t* global_count) {
   PetscFunctionBeginUser;
-  const auto& V = fine.copies;
-  const auto& D = fine.layout;
+  const auto& V = fine.copies();
+  const auto& D = fine.layout();
   std::vector<char> in(V.num_copies, 0);
   for (std::int32_t c = 0; c < fine.graph.num_cells(); ++c)
     if (coarse_irregular[fine.parent[c]])
@@ -113,14 +113,14 @@ PetscErrorCode build_region(MPI_Comm comm, const Level& fine,
   RL.num_ranks = D.num_ranks;
   RL.num_global_copies = n;
   RL.owned_begin.assign(D.num_ranks + 1, 0);
-  for (auto v : canonical) ++RL.owned_begin[fine.partition.copy_rank[v] + 1];
+  for (auto v : canonical) ++RL.owned_begin[fine.partition().copy_rank[v] + 1];
   for (int r = 0; r < D.num_ranks; ++r) RL.owned_begin[r + 1] += RL.owned_begin[r];
   RL.global_block.resize(n);
   std::vector<PetscInt> next(RL.owned_begin.begin(), RL.owned_begin.end() - 1);
   std::vector<std::int32_t> region_of(V.num_copies, -1);
   for (std::int32_t i = 0; i < n; ++i) {
     region_of[canonical[i]] = i;
-    RL.global_block[i] = next[fine.partition.copy_rank[canonical[i]]]++;
+    RL.global_block[i] = next[fine.partition().copy_rank[canonical[i]]]++;
   }
   // Local region copies in the fine layout's order: owned first, then ghosts.
   R->local_of.assign(D.num_local(), -1);
@@ -202,23 +202,23 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
   PetscCall(build_region(comm, fine, coarse_irregular, &R, &global_count));
   stats->rows = global_count;
   if (global_count == 0) PetscFunctionReturn(0);
-  const auto& D = fine.layout;
-  const auto& DC = coarse.layout;
+  const auto& D = fine.layout();
+  const auto& DC = coarse.layout();
   const std::int32_t nr = R.layout.num_local(), nr_owned = R.layout.num_owned;
 
   // Coarse canonical copy -> local coarse copy.
-  std::vector<std::int32_t> coarse_local(coarse.copies.num_copies, -1);
+  std::vector<std::int32_t> coarse_local(coarse.copies().num_copies, -1);
   for (std::int32_t i = 0; i < DC.num_local(); ++i) coarse_local[DC.copies[i]] = i;
   // Pattern of each local region copy: the coarse copies common to the parents of all its
   // incident cells (over the whole, replicated level, so that owners and ghosts agree),
   // ascending canonical ids.
   std::vector<std::array<std::int32_t, kSlots>> pattern(nr);
   std::vector<char> started(nr, 0);
-  std::vector<std::int32_t> region_of_canonical(fine.copies.num_copies, -1);
+  std::vector<std::int32_t> region_of_canonical(fine.copies().num_copies, -1);
   for (std::int32_t r = 0; r < nr; ++r) region_of_canonical[D.copies[R.fine_of[r]]] = r;
   for (std::int32_t c = 0; c < fine.graph.num_cells(); ++c) {
-    const auto& pc = coarse.copies.cell_corners[fine.parent[c]];
-    for (auto v : fine.copies.cell_corners[c]) {
+    const auto& pc = coarse.copies().cell_corners[fine.parent[c]];
+    for (auto v : fine.copies().cell_corners[c]) {
       const auto r = region_of_canonical[v];
       if (r < 0) continue;
       auto& p = pattern[r];
@@ -247,12 +247,12 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
   std::vector<double> P0(std::size_t(kRow) * nr, 0.0);
   for (std::int32_t r = 0; r < nr; ++r) {
     const auto v = D.copies[R.fine_of[r]];
-    const auto cell = fine.copies.first_cell[v];
+    const auto cell = fine.copies().first_cell[v];
     int q = 0;
-    while (fine.copies.cell_corners[cell][q] != v) ++q;
+    while (fine.copies().cell_corners[cell][q] != v) ++q;
     const auto& p = fine.graph.ijk[cell];
     const int o = element::parity_octant(p[0], p[1], p[2]);
-    const auto& pc = coarse.copies.cell_corners[fine.parent[cell]];
+    const auto& pc = coarse.copies().cell_corners[fine.parent[cell]];
     for (int j = 0; j < 8; ++j) {
       const double w = element::child_weight(o, q, j);
       if (w == 0.0) continue;
@@ -271,9 +271,9 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
   std::map<std::vector<int>, Eigen::Matrix<double, 6, 6>> pseudo_inverses;
   for (std::int32_t r = 0; r < nr_owned; ++r) {
     auto& c = constraint[r];
-    const auto& xf = fine.copies.vertex[D.copies[R.fine_of[r]]];
+    const auto& xf = fine.copies().vertex[D.copies[R.fine_of[r]]];
     for (int k = 0; k < kSlots && pattern[r][k] >= 0; ++k) {
-      const auto& xc = coarse.copies.vertex[DC.copies[pattern[r][k]]];
+      const auto& xc = coarse.copies().vertex[DC.copies[pattern[r][k]]];
       const double y[3] = {2.0 * xc[0] - xf[0], 2.0 * xc[1] - xf[1], 2.0 * xc[2] - xf[2]};
       for (int b = 0; b < 3; ++b) {
         double* B = c.B[3 * k + b];
@@ -519,10 +519,10 @@ PetscErrorCode energy_interpolation(MPI_Comm comm, const Level& fine, const Leve
 PetscErrorCode interpolation_matrix(MPI_Comm comm, const Level& fine, const Level& coarse,
                                     const InterpolationRows& rows, Mat* P) {
   PetscFunctionBeginUser;
-  const auto& D = fine.layout;
-  const auto& DC = coarse.layout;
+  const auto& D = fine.layout();
+  const auto& DC = coarse.layout();
   const auto I = hierarchy::interpolation(fine, coarse, D.rank);  // trilinear, owned copies
-  std::vector<std::int32_t> local_of(fine.copies.num_copies, -1);
+  std::vector<std::int32_t> local_of(fine.copies().num_copies, -1);
   for (std::int32_t i = 0; i < D.num_owned; ++i) local_of[D.copies[i]] = i;
   const PetscInt first = DC.first_owned_block(), last = first + DC.num_owned;
   std::vector<PetscInt> d_nnz(D.num_owned, 0), o_nnz(D.num_owned, 0);

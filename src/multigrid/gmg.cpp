@@ -131,7 +131,7 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     if (l == 0) {
       d->dm = fine_dm;
     } else {
-      PetscCall(topology::create_dm(comm, lev.layout, &d->dm));
+      PetscCall(topology::create_dm(comm, lev.layout(), &d->dm));
       d->own_dm = true;
     }
     PetscCall(DMCreateGlobalVector(d->dm, &d->r));
@@ -150,7 +150,7 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     }
     PetscCall(DMCreateLocalVector(d->dm, &d->xl));
     PetscCall(VecDuplicate(d->xl, &d->yl));
-    const auto& D = lev.layout;
+    const auto& D = lev.layout();
     d->cell_pos.resize(D.cells.size());
     d->local_cell.assign(lev.graph.num_cells(), -1);
     for (std::size_t e = 0; e < D.cells.size(); ++e) {
@@ -160,7 +160,7 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     }
     d->colour.resize(D.num_owned);
     for (std::int32_t i = 0; i < D.num_owned; ++i) {
-      const auto& v = lev.copies.vertex[D.copies[i]];
+      const auto& v = lev.copies().vertex[D.copies[i]];
       d->colour[i] = element::parity_octant(v[0], v[1], v[2]);
       d->colour_list[d->colour[i]].push_back(i);
     }
@@ -171,31 +171,31 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     auto& d = *data_[l];
     auto& ch = d.children;
     const auto& fine = levels_[l - 1];
-    const std::size_t n = levels_[l].layout.cells.size();
+    const std::size_t n = levels_[l].layout().cells.size();
     ch.offset.assign(n + 1, 0);
-    std::vector<std::int32_t> parent_of(fine.layout.cells.size());
-    for (std::size_t e = 0; e < fine.layout.cells.size(); ++e) {
-      const auto C = d.local_cell[fine.parent[fine.layout.cells[e]]];
+    std::vector<std::int32_t> parent_of(fine.layout().cells.size());
+    for (std::size_t e = 0; e < fine.layout().cells.size(); ++e) {
+      const auto C = d.local_cell[fine.parent[fine.layout().cells[e]]];
       PetscCheck(C >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
                  "gmg: a coarse cell's children are on different ranks");
       parent_of[e] = C;
       ++ch.offset[C + 1];
     }
     for (std::size_t C = 0; C < n; ++C) ch.offset[C + 1] += ch.offset[C];
-    ch.child.resize(fine.layout.cells.size());
+    ch.child.resize(fine.layout().cells.size());
     std::vector<std::int32_t> next(ch.offset.begin(), ch.offset.end() - 1);
-    for (std::size_t e = 0; e < fine.layout.cells.size(); ++e)
+    for (std::size_t e = 0; e < fine.layout().cells.size(); ++e)
       ch.child[next[parent_of[e]]++] = std::int32_t(e);
     if (l >= assembled_from_) continue;  // an assembled level: no blocks
     d.stored = std::make_unique<StoredCells>(
-        levels_[l].layout, l > opt_.first_level ? opt_.precision : Precision::double_);
+        levels_[l].layout(), l > opt_.first_level ? opt_.precision : Precision::double_);
     d.op = d.stored.get();
   }
   // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
   for (int l = 0; l + 1 < L; ++l) {
     const auto I = hierarchy::interpolation(levels_[l], levels_[l + 1], rank);
-    const auto& fine = levels_[l].layout;
-    const auto& coarse = levels_[l + 1].layout;
+    const auto& fine = levels_[l].layout();
+    const auto& coarse = levels_[l + 1].layout();
     // Exact preallocation: a row holds 1-8 weights (3.4 on average), and AIJ keeps the
     // preallocated length after assembly, so a uniform 8 + 8 would store 16 per row.
     const PetscInt fine_begin = fine.first_owned_block(), coarse_begin = coarse.first_owned_block();
@@ -235,13 +235,13 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
   // Composite runs: each fine cell's ancestor on the first level (its composite element; all
   // on this rank), and a fine cell of each such element, whose rotation is the element's.
   if (first > 0) {
-    const auto& fine = levels_[0].layout;
+    const auto& fine = levels_[0].layout();
     const auto& top = levels_[first];
     std::vector<std::int32_t> local(top.graph.num_cells(), -1);
-    for (std::size_t C = 0; C < top.layout.cells.size(); ++C)
-      local[top.layout.cells[C]] = std::int32_t(C);
+    for (std::size_t C = 0; C < top.layout().cells.size(); ++C)
+      local[top.layout().cells[C]] = std::int32_t(C);
     composite_element_.resize(fine.cells.size());
-    composite_fine_cell_.assign(top.layout.cells.size(), -1);
+    composite_fine_cell_.assign(top.layout().cells.size(), -1);
     for (std::size_t e = 0; e < fine.cells.size(); ++e) {
       std::int32_t c = fine.cells[e];
       for (int k = 0; k < first; ++k) c = levels_[k].parent[c];
@@ -251,13 +251,13 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
       if (composite_fine_cell_[local[c]] < 0) composite_fine_cell_[local[c]] = std::int32_t(e);
     }
     // Local fine cells are in ascending canonical order: an element's first is its smallest.
-    composite_keys_.resize(top.layout.cells.size());
+    composite_keys_.resize(top.layout().cells.size());
     for (std::size_t C = 0; C < composite_keys_.size(); ++C)
       composite_keys_[C].first_cell = fine.cells[std::size_t(composite_fine_cell_[C])];
     for (auto C : composite_element_) ++composite_keys_[std::size_t(C)].num_cells;
     chain_missing_.assign(fine.cells.size(), 0);
   }
-  const auto& D0 = levels_[first].layout;
+  const auto& D0 = levels_[first].layout();
   PetscCall(MatCreateShell(comm, 3 * D0.num_owned, 3 * D0.num_owned, PETSC_DETERMINE,
                            PETSC_DETERMINE, this, &shell_));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
@@ -306,7 +306,7 @@ void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full
   // block of its parent was built (or on a full rebuild), or when the blocks above it
   // were never built (its composite element's block was carried over a cut).
   auto& d = *data_[0];
-  const std::size_t n = levels_[0].layout.cells.size();
+  const std::size_t n = levels_[0].layout().cells.size();
   d.dirty.assign(n, full ? 1 : 0);
   if (full) return;
   const double tol = opt_.rebuild_tolerance;
@@ -342,7 +342,7 @@ std::vector<std::int32_t> match_composite_elements(const std::vector<CompositeKe
 }
 
 const double* Multigrid::element_rotation(const assembly::CellData& cells, std::size_t C) const {
-  return cells.rotation.size() == 9 * levels_[0].layout.cells.size()
+  return cells.rotation.size() == 9 * levels_[0].layout().cells.size()
              ? &cells.rotation[9 * std::size_t(composite_fine_cell_[C])]
              : kIdentity3;
 }
@@ -356,7 +356,7 @@ CompositeBlocks Multigrid::composite_blocks() const {
   const int first = opt_.first_level;
   if (first == 0 || !built_) return b;
   const auto& stored = *data_[first]->stored;
-  const auto& corners = levels_[first].layout.cell_corners;
+  const auto& corners = levels_[first].layout().cell_corners;
   const std::size_t n = composite_keys_.size();
   b.keys = composite_keys_;
   b.packed.resize(kPackedSize * n);
@@ -379,7 +379,7 @@ PetscErrorCode Multigrid::take_carried_blocks(const assembly::CellData& cells,
   PetscFunctionBeginUser;
   const int first = opt_.first_level;
   auto& stored = *data_[first]->stored;
-  const auto& corners = levels_[first].layout.cell_corners;
+  const auto& corners = levels_[first].layout().cell_corners;
   const std::size_t n = composite_keys_.size();
   carried->assign(n, 0);
   const auto& c = carried_;
@@ -427,7 +427,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   weights_ = w;
   rebuilt_.assign(L, 0);
   auto& d0 = *data_[0];
-  const auto& D0 = levels_[0].layout;
+  const auto& D0 = levels_[0].layout();
   // The fine operator always uses the current rotations, whatever is rebuilt above it. A
   // full rebuild (also after invalidate(): material data may have changed) makes a new one,
   // which forms the stiffness of cells without a kind once; rotation-only updates keep it.
@@ -463,7 +463,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   if (!full && first > 0) PetscCall(rotate_composite_blocks(cells, &rotated));
   // Rotated composite blocks need no fine cell: none is compared or marked.
   if (rotated)
-    d0.dirty.assign(levels_[0].layout.cells.size(), 0);
+    d0.dirty.assign(levels_[0].layout().cells.size(), 0);
   else
     mark_dirty_fine_cells(cells, full);
   if (!carried.empty())
@@ -478,7 +478,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   for (int l = 1; l < L; ++l) {
     if (l == assembled_from_) {
       PetscCall(build_smoothed_chain());
-      for (int k = l; k < L; ++k) rebuilt_[k] = std::int64_t(levels_[k].layout.cells.size());
+      for (int k = l; k < L; ++k) rebuilt_[k] = std::int64_t(levels_[k].layout().cells.size());
       break;
     }
     auto& d = *data_[l];
@@ -543,7 +543,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
 PetscErrorCode Multigrid::build_diagonal(int l) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
-  const auto& D = levels_[l].layout;
+  const auto& D = levels_[l].layout();
   // 3x3 diagonal blocks, 9 numbers per copy, summed over ranks through a temporary
   // ghost exchange (kept only during set-up: it would be the largest array per DOF).
   Vec diag_g, diag_l;
@@ -601,7 +601,7 @@ PetscErrorCode Multigrid::apply_level(int l, Vec x, Vec y) {
 PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
-  const auto& D = levels_[l].layout;
+  const auto& D = levels_[l].layout();
   // On one rank the local and global numberings coincide (no ghosts): sweep in place.
   // In parallel each colour needs the ghosts of x before and the sum of the residual
   // contributions over ranks after.
@@ -732,7 +732,7 @@ PetscErrorCode Multigrid::estimate_lambda_max(int l) {
   // the canonical copy numbering, so the estimate (and hence the smoother) is the same on
   // any number of ranks.
   auto& d = *data_[l];
-  const auto& D = levels_[l].layout;
+  const auto& D = levels_[l].layout();
   Vec v = d.tmp, w = d.r;
   PetscScalar* a;
   PetscCall(VecGetArray(v, &a));
@@ -829,14 +829,14 @@ PetscErrorCode Multigrid::smoothing_jacobi(int l, Mat* Dinv) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& lev = levels_[l];
-  const auto& D = lev.layout;
+  const auto& D = lev.layout();
   // The copies whose rows are smoothed (canonical, the same on every rank): the corners of the
   // children of irregular coarse cells, grown by layers of cells.
   const int layers = opt_.smoothed_layers;
-  std::vector<char> mark(std::size_t(lev.copies.num_copies), layers < 0 ? 1 : 0);
+  std::vector<char> mark(std::size_t(lev.copies().num_copies), layers < 0 ? 1 : 0);
   if (layers >= 0) {
     const auto& irregular = irregular_[l + 1];
-    const auto& corners = lev.copies.cell_corners;
+    const auto& corners = lev.copies().cell_corners;
     for (std::size_t c = 0; c < corners.size(); ++c)
       if (irregular[std::size_t(lev.parent[c])])
         for (auto q : corners[c]) mark[std::size_t(q)] = 1;
@@ -867,7 +867,7 @@ PetscErrorCode Multigrid::smoothing_jacobi(int l, Mat* Dinv) {
 PetscErrorCode Multigrid::assembled_diagonal(int l) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
-  const auto& D = levels_[l].layout;
+  const auto& D = levels_[l].layout();
   Mat A = d.A;
   d.diag_inv.assign(9 * std::size_t(D.num_owned), 0.0);
   std::vector<PetscInt> dead;
@@ -919,7 +919,7 @@ PetscErrorCode Multigrid::build_smoothed_chain() {
   const int S = assembled_from_ - 1;
   PetscCall(PetscLogEventBegin(ev_interp_, 0, 0, 0, 0));
   Mat A;
-  PetscCall(assembly::create_matrix(comm_, levels_[S].copies, levels_[S].layout, &A));
+  PetscCall(assembly::create_matrix(comm_, levels_[S].copies(), levels_[S].layout(), &A));
   PetscCall(assembly::assemble(*data_[S]->op, data_[S]->mask, A));
   for (int l = S; l + 1 < L; ++l) {
     auto& d = *data_[l];
@@ -1004,7 +1004,7 @@ PetscErrorCode Multigrid::build_composite_mask() {
 PetscErrorCode Multigrid::rotate_composite_blocks(const assembly::CellData& cells, bool* done) {
   PetscFunctionBeginUser;
   *done = false;
-  const auto& D0 = levels_[0].layout;
+  const auto& D0 = levels_[0].layout();
   // Only for rotation groups that are the composite elements (the simulation sets them).
   int ok = opt_.rotate_composite && rotatable_ && !composite_rotation_.empty() &&
            cells.num_rotation_groups == std::int32_t(composite_fine_cell_.size()) &&
@@ -1039,7 +1039,7 @@ PetscErrorCode Multigrid::build_coarsest() {
     // The pattern never changes: re-filling the same matrix lets the factorization keep
     // its symbolic phase and redo only the numeric one.
     if (!coarse_matrix_)
-      PetscCall(assembly::create_matrix(comm_, lev.copies, lev.layout, &coarse_matrix_));
+      PetscCall(assembly::create_matrix(comm_, lev.copies(), lev.layout(), &coarse_matrix_));
     PetscCall(assembly::assemble(*d.op, d.mask, coarse_matrix_));
   }
   if (!opt_.factor_coarsest) PetscFunctionReturn(0);
@@ -1161,8 +1161,8 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     for (const auto& p : lev.graph.ijk)
       shared += dup.count(lev.graph.spec.cell_index(p[0], p[1], p[2]));
     // Nonzeros an assembled matrix of this level would have: 9 per coupled copy pair.
-    std::vector<std::vector<std::int32_t>> nb(lev.copies.num_copies);
-    for (const auto& corners : lev.copies.cell_corners)
+    std::vector<std::vector<std::int32_t>> nb(lev.copies().num_copies);
+    for (const auto& corners : lev.copies().cell_corners)
       for (auto a : corners)
         for (auto b : corners) nb[a].push_back(b);
     std::int64_t pairs = 0;
@@ -1171,12 +1171,13 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       pairs += std::unique(v.begin(), v.end()) - v.begin();
     }
     // What the multigrid holds for this level, summed over ranks: operator data (level 0:
-    // lambda, mu, rho, R and a kernel view per cell; coarse: a packed 24x24 block per
-    // cell), the inverted 3x3 diagonal blocks, the interpolation to this level from the
-    // next (MAIJ over copies: value + column index, 8 per copy at most) and the work
-    // vectors (6 global + 2 local, ghosts ignored). Level 0 also keeps the rotations the
-    // coarse blocks were built from (partial rebuilds compare against them).
-    const double cells = double(lev.graph.num_cells()), copies = double(lev.copies.num_copies);
+    // lambda, mu, rho, the kind or own-stiffness index, a masked flag per cell and the mask
+    // per DOF, and where rotations are stored (corotational runs) R and the R the coarse
+    // blocks were built from; coarse: a packed 24x24 block per cell), the inverted 3x3
+    // diagonal blocks, the interpolation to this level from the next (the scalar AIJ under
+    // the MAIJ: value + column index per weight) and the work vectors (6 global, 4 on the
+    // first level, whose b and x are the caller's; 2 local; ghosts ignored).
+    const double cells = double(lev.graph.num_cells()), copies = double(lev.copies().num_copies);
     // Assembled levels (smoothed interpolation) and smoothed transfers: their AIJ nonzeros.
     const auto aij_bytes = [](Mat M) {
       MatInfo info;
@@ -1186,12 +1187,17 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     const auto& d = *data_[l];
     const double block_bytes =
         l > 0 && d.stored && d.stored->precision() == Precision::single ? 4.0 : 8.0;
+    const double rotations = fine_cells_ && !fine_cells_->rotation.empty() ? 2.0 * 9.0 * 8.0 : 0.0;
     const double op = d.A      ? aij_bytes(d.A)
-                      : l == 0 ? cells * (22.0 * 8.0 + sizeof(FineCell))
+                      : l == 0 ? cells * (3.0 * 8.0 + 4.0 + 1.0 + rotations) + 3.0 * copies * 8.0
                                : cells * kPackedSize * block_bytes;
-    const double transfer = l + 1 >= num_levels() ? 0.0
-                            : d.P_trilinear       ? aij_bytes(d.P)
-                                                  : copies * 8.0 * 12.0;
+    double transfer = 0.0;
+    if (l + 1 < num_levels()) {
+      Mat scalar = d.P;
+      if (!d.P_trilinear) PetscCall(MatMAIJGetAIJ(d.P, &scalar));
+      transfer = aij_bytes(scalar);
+    }
+    const double vectors = (l == opt_.first_level ? 4.0 : 6.0) + 2.0;
     // Energy-minimized rows (8 3x3 blocks + 8 coarse indices each, on the copies' owners and
     // ghosts) and the Schwarz patches' packed Cholesky factors with their DOF lists.
     std::int64_t extra[3] = {0, 0, 0};  // bytes, rows, patches
@@ -1206,7 +1212,7 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     MPI_Allreduce(MPI_IN_PLACE, extra, 1, MPI_INT64_T, MPI_SUM, comm_);
     MPI_Allreduce(MPI_IN_PLACE, extra + 2, 1, MPI_INT64_T, MPI_SUM, comm_);
     const double bytes =
-        op + copies * 9.0 * 8.0 + transfer + 8.0 * 3.0 * copies * 8.0 + double(extra[0]);
+        op + copies * 9.0 * 8.0 + transfer + vectors * 3.0 * copies * 8.0 + double(extra[0]);
     energy_rows += extra[1];
     patches[l] = extra[2];
     std::int64_t rebuilt = rebuilt_.empty() ? 0 : rebuilt_[l];
@@ -1215,7 +1221,7 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     if (l == 0) fine_nnz = 9.0 * double(pairs), fine_dofs = 3.0 * copies;
     PetscCall(PetscViewerASCIIPrintf(viewer, "  %5d %10d %11lld %9d %11lld %12.2f %9lld%s\n", l,
                                      int(lev.graph.num_cells()), (long long)shared,
-                                     3 * int(lev.copies.num_copies), (long long)(9 * pairs),
+                                     3 * int(lev.copies().num_copies), (long long)(9 * pairs),
                                      bytes / (1024.0 * 1024.0), (long long)rebuilt,
                                      l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)"
                                      : data_[l]->A         ? "  (assembled: P^T A P)"

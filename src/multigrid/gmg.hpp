@@ -126,7 +126,8 @@ struct CompositeBlocks {
 class Multigrid {
  public:
   /// Builds the hierarchy for the model's lattice and distribution. `layout` and
-  /// `fine_dm` are the simulation's DOF layout and DM (level 0).
+  /// `fine_dm` are the simulation's DOF layout and DM (level 0). Level 0 refers to
+  /// `copies`, `partition` and `layout` (not copied): they must outlive the Multigrid.
   Multigrid(MPI_Comm comm, const lattice::Lattice& lattice, const topology::VertexCopies& copies,
             const topology::Partition& partition, const topology::DofLayout& layout, DM fine_dm,
             const Options& options);

@@ -16,7 +16,7 @@ PetscErrorCode Schwarz::create(MPI_Comm comm, DM dm, const hierarchy::Level& fin
   Schwarz& S = *out;
   S = Schwarz{};
   S.dm_ = dm;
-  const auto& D = fine.layout;
+  const auto& D = fine.layout();
   // The mask of every local DOF (ghosts too).
   std::vector<double> m;
   {
@@ -31,9 +31,9 @@ PetscErrorCode Schwarz::create(MPI_Comm comm, DM dm, const hierarchy::Level& fin
   }
   // Local children of every selected coarse cell (children share their parent's rank).
   std::vector<std::int32_t> coarse_local(coarse.graph.num_cells(), -1);
-  for (std::size_t C = 0; C < coarse.layout.cells.size(); ++C)
-    coarse_local[coarse.layout.cells[C]] = std::int32_t(C);
-  std::vector<std::vector<std::int32_t>> children(coarse.layout.cells.size());
+  for (std::size_t C = 0; C < coarse.layout().cells.size(); ++C)
+    coarse_local[coarse.layout().cells[C]] = std::int32_t(C);
+  std::vector<std::vector<std::int32_t>> children(coarse.layout().cells.size());
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     const auto C = fine.parent[D.cells[e]];
     if (coarse_selected[C] && coarse_local[C] >= 0)
@@ -68,7 +68,7 @@ PetscErrorCode Schwarz::create(MPI_Comm comm, DM dm, const hierarchy::Level& fin
   }
   // The principal submatrices of the assembled level operator, on every rank at once.
   Mat A;
-  PetscCall(assembly::create_matrix(comm, fine.copies, D, &A));
+  PetscCall(assembly::create_matrix(comm, fine.copies(), D, &A));
   PetscCall(assembly::assemble(op, mask, A));
   Mat* sub = nullptr;
   PetscCall(

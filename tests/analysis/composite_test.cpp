@@ -360,7 +360,7 @@ TEST(Composite, FineCellsShareTheirElementsRotation) {
       Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Re(&cells.rotation[9 * e]);
       worst = std::max(worst, (Re - Rg).norm());
     }
-    EXPECT_EQ(sum.size(), job.sim->multigrid()->level(level).layout.cells.size());
+    EXPECT_EQ(sum.size(), job.sim->multigrid()->level(level).layout().cells.size());
     EXPECT_LT(worst, 1e-10) << "level " << level;
   }
 }
@@ -392,7 +392,7 @@ TEST(Composite, RotatedBlocksAreTheGalerkinProductsOfTheRotatedFineCells) {
     auto* mg = job.sim->multigrid();
     std::printf("level %d: rotated blocks vs Galerkin of the rotated fine cells: %.2e\n", level, d);
     EXPECT_EQ(mg->rebuilt_cells(0), 0);  // no fine cell was visited
-    EXPECT_EQ(mg->rebuilt_cells(level), std::int64_t(mg->level(level).layout.cells.size()));
+    EXPECT_EQ(mg->rebuilt_cells(level), std::int64_t(mg->level(level).layout().cells.size()));
     EXPECT_LT(d, 1e-12);
   }
 }
@@ -400,7 +400,7 @@ TEST(Composite, RotatedBlocksAreTheGalerkinProductsOfTheRotatedFineCells) {
 /// Per local composite element of `job`: the canonical ids of its fine cells, in order.
 std::vector<std::vector<std::int32_t>> element_cell_sets(Job& job) {
   const auto& mg = *job.sim->multigrid();
-  std::vector<std::vector<std::int32_t>> sets(mg.level(mg.first_level()).layout.cells.size());
+  std::vector<std::vector<std::int32_t>> sets(mg.level(mg.first_level()).layout().cells.size());
   const auto& element = mg.composite_elements();
   for (std::size_t e = 0; e < element.size(); ++e)
     sets[std::size_t(element[e])].push_back(job.model.layout.cells[e]);
@@ -567,7 +567,7 @@ TEST(Composite, CutsKeepTheCompositeMomentum) {
     const Eigen::Vector3d before = composite_momentum(job, vc);
     HEXCUT_CALL(analysis::prolong_composite(mg0, vc, job.state.v));
     for (Vec* v : {&x, &vc}) VecDestroy(v);
-    const auto copies = job.sim->multigrid()->level(level).layout.num_owned;
+    const auto copies = job.sim->multigrid()->level(level).layout().num_owned;
     ASSERT_GT(job.cut_all(), 0);
     auto& mg = *job.sim->multigrid();
     HEXCUT_CALL(DMCreateGlobalVector(mg.dm(level), &vc));
@@ -579,9 +579,9 @@ TEST(Composite, CutsKeepTheCompositeMomentum) {
     std::printf(
         "level %d: composite copies %d -> %d; momentum before [%.15g %.15g %.15g], after "
         "[%.15g %.15g %.15g]; preimage misfit %.1e\n",
-        level, int(copies), int(mg.level(level).layout.num_owned), before.x(), before.y(),
+        level, int(copies), int(mg.level(level).layout().num_owned), before.x(), before.y(),
         before.z(), after.x(), after.y(), after.z(), misfit);
-    EXPECT_GT(mg.level(level).layout.num_owned, copies);
+    EXPECT_GT(mg.level(level).layout().num_owned, copies);
     EXPECT_LT(misfit, 1e-12);
     EXPECT_LT((after - before).norm(), 1e-12 * before.norm());
   }

@@ -33,13 +33,13 @@ TEST(Device, StoredCellsApplyEqualsTheHost) {
     for (int l = 1; l < mg.num_levels(); ++l) {
       const auto& A = mg.stored_cells(l);
       const auto& lev = mg.level(l);
-      assembly::CellPositions position(lev.layout.cells.size());
+      assembly::CellPositions position(lev.layout().cells.size());
       for (std::size_t e = 0; e < position.size(); ++e) {
-        const auto& p = lev.graph.ijk[lev.layout.cells[e]];
+        const auto& p = lev.graph.ijk[lev.layout().cells[e]];
         position[e] = {p[0], p[1], p[2]};
       }
       const auto colours = backend::colour_cells(position);
-      const std::size_t n = 3 * std::size_t(lev.layout.num_local());
+      const std::size_t n = 3 * std::size_t(lev.layout().num_local());
       std::vector<double> x(n), host(n, 0.5), device(n, 0.5);
       for (std::size_t i = 0; i < n; ++i) x[i] = std::sin(0.37 * double(i)) + 0.1;
       A.apply_add(x.data(), host.data());

@@ -227,7 +227,7 @@ TEST(Multigrid, PartialRebuildTouchesOnlyAncestorsAndEqualsFullRebuild) {
   auto* mg = ops.job.sim->multigrid();
   ASSERT_EQ(mg->num_levels(), 3);
   for (int l = 0; l < 3; ++l)
-    EXPECT_EQ(mg->rebuilt_cells(l), std::int64_t(mg->level(l).layout.cells.size()))
+    EXPECT_EQ(mg->rebuilt_cells(l), std::int64_t(mg->level(l).layout().cells.size()))
         << "first update: all";
   // Turn a slab of cells; the ancestors of exactly those are rebuilt.
   // Cells 3..5 along x (h = 0.1): blocks [2,3] and [4,5] of level 1 get some turned
@@ -240,7 +240,7 @@ TEST(Multigrid, PartialRebuildTouchesOnlyAncestorsAndEqualsFullRebuild) {
   EXPECT_EQ(mg->rebuilt_cells(0), std::int64_t(turned.size()));
   EXPECT_EQ(mg->rebuilt_cells(1), std::int64_t(parents1.size()));
   EXPECT_EQ(mg->rebuilt_cells(2), std::int64_t(parents2.size()));
-  std::int64_t n1 = std::int64_t(mg->level(1).layout.cells.size()),
+  std::int64_t n1 = std::int64_t(mg->level(1).layout().cells.size()),
                total_turned = std::int64_t(turned.size());
   MPI_Allreduce(MPI_IN_PLACE, &n1, 1, MPI_INT64_T, MPI_SUM, PETSC_COMM_WORLD);
   MPI_Allreduce(MPI_IN_PLACE, &total_turned, 1, MPI_INT64_T, MPI_SUM, PETSC_COMM_WORLD);
@@ -253,7 +253,7 @@ TEST(Multigrid, PartialRebuildTouchesOnlyAncestorsAndEqualsFullRebuild) {
   for (int l = 0; l < 3; ++l) partial[l] = level_apply(mg, l);
   mg->invalidate();
   mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
-  EXPECT_EQ(mg->rebuilt_cells(1), std::int64_t(mg->level(1).layout.cells.size()));
+  EXPECT_EQ(mg->rebuilt_cells(1), std::int64_t(mg->level(1).layout().cells.size()));
   for (int l = 0; l < 3; ++l) {
     Vec full = level_apply(mg, l);
     EXPECT_LT(rel_diff(partial[l], full), 1e-14) << "level " << l;
@@ -274,7 +274,7 @@ TEST(Multigrid, RotationOnlyUpdateKeepsTheEnergyInterpolationAndStaysGalerkin) {
   MatConvert(mg->interpolation(0), MATAIJ, MAT_INITIAL_MATRIX, &P_before);
   turn_cells(ops.job, 0.25, 0.55, 0.3);
   mg->update(ops.job.model.cells, w, ops.job.model.boundary.constraints.rows);
-  EXPECT_LT(mg->rebuilt_cells(0), std::int64_t(mg->level(0).layout.cells.size()));
+  EXPECT_LT(mg->rebuilt_cells(0), std::int64_t(mg->level(0).layout().cells.size()));
   Mat P_after;
   MatConvert(mg->interpolation(0), MATAIJ, MAT_INITIAL_MATRIX, &P_after);
   PetscBool same;
@@ -297,8 +297,8 @@ Vec rigid_mode(multigrid::Multigrid* mg, int l, int m) {
   const double s = double(1 << l);
   PetscScalar* a;
   VecGetArray(v, &a);
-  for (std::int32_t i = 0; i < lev.layout.num_owned; ++i) {
-    const auto& p = lev.copies.vertex[lev.layout.copies[i]];
+  for (std::int32_t i = 0; i < lev.layout().num_owned; ++i) {
+    const auto& p = lev.copies().vertex[lev.layout().copies[i]];
     const double x[3] = {s * p[0], s * p[1], s * p[2]};
     double u[3] = {0, 0, 0};
     if (m < 3) {
@@ -590,7 +590,7 @@ TEST(Multigrid, SchwarzPatchSolveInvertsTheOperatorOnItsPatch) {
   auto* mg = ops.job.sim->multigrid();
   const auto& fine = mg->level(0);
   const auto& coarse = mg->level(1);
-  const auto& D = fine.layout;
+  const auto& D = fine.layout();
   Vec mask = mg->mask(0);
   // The mask in canonical copy order on every rank, to pick the same patch everywhere.
   const auto free = ops.job.canonical(mask);
@@ -602,7 +602,7 @@ TEST(Multigrid, SchwarzPatchSolveInvertsTheOperatorOnItsPatch) {
     std::set<std::int32_t> copies;
     std::map<std::int32_t, int> seen;
     for (auto e : children[C])
-      for (auto v : fine.copies.cell_corners[e]) {
+      for (auto v : fine.copies().cell_corners[e]) {
         copies.insert(v);
         ++seen[v];
       }
@@ -997,10 +997,10 @@ TEST(Multigrid, CellColoursShareNoVertexCopyOnAnyLevel) {
     for (int l = 0; l < mg->num_levels(); ++l) {
       const auto& lev = mg->level(l);
       std::vector<std::array<int, 3>> pos, parity_only;
-      for (auto c : lev.layout.cells)
+      for (auto c : lev.layout().cells)
         pos.push_back({lev.graph.ijk[c][0], lev.graph.ijk[c][1], lev.graph.ijk[c][2]});
       const auto colours = backend::colour_cells(pos);
-      EXPECT_EQ(worst_sharing(lev.layout, colours), pos.empty() ? 0 : 1) << "level " << l;
+      EXPECT_EQ(worst_sharing(lev.layout(), colours), pos.empty() ? 0 : 1) << "level " << l;
       std::size_t total = 0;
       for (int k = 0; k < colours.num_colours(); ++k)
         total += colours.offset[k + 1] - colours.offset[k];
@@ -1019,7 +1019,7 @@ TEST(Multigrid, CellColoursShareNoVertexCopyOnAnyLevel) {
         for (std::size_t e = 0; e < pos.size(); ++e)
           parity.cell[next[element::parity_octant(pos[e][0], pos[e][1], pos[e][2])]++] =
               std::int32_t(e);
-        EXPECT_EQ(worst_sharing(lev.layout, parity), 2);
+        EXPECT_EQ(worst_sharing(lev.layout(), parity), 2);
         EXPECT_GT(colours.num_colours(), 8);
       }
     }
