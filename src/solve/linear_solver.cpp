@@ -193,9 +193,26 @@ PetscErrorCode solve(KSP ksp, Vec b, Vec x, SolveRecord* record) {
   // formatting prints a plain %g of a whole number with a trailing point ("3.").
   const MPI_Comm comm = PetscObjectComm((PetscObject)ksp);
   if (r.reason < 0) {
-    const std::string msg = "linear solve failed: " + reason_string(r.reason) + " after " +
-                            std::to_string(r.iterations) + " iterations (relative residual " +
-                            std::to_string(r.residual) + ")";
+    std::string msg = "linear solve failed: " + reason_string(r.reason) + " after " +
+                      std::to_string(r.iterations) + " iterations (relative residual " +
+                      std::to_string(r.residual) + ")";
+    if (r.reason == KSP_DIVERGED_INDEFINITE_PC) {
+      // CG needs a symmetric positive definite preconditioner. hexcut's multigrid is one in
+      // double precision; with its coarse blocks rounded to float a coarse level of a large,
+      // ill-conditioned (slender) body can turn indefinite (doc/theory.md, "Mixed precision").
+      PC pc;
+      PetscBool hexcut = PETSC_FALSE;
+      PetscCall(KSPGetPC(ksp, &pc));
+      PetscCall(PetscObjectTypeCompare((PetscObject)pc, multigrid::PCHEXCUT, &hexcut));
+      multigrid::Options o;
+      if (hexcut) PetscCall(multigrid::pc_get_options(pc, &o));
+      msg += hexcut && o.precision == multigrid::Precision::single
+                 ? ": the preconditioner is not positive definite; -gmg_precision single rounds "
+                   "the coarse levels to float, which a system this large or ill-conditioned "
+                   "does not tolerate: run it with -gmg_precision double (the default)"
+                 : ": the preconditioner is not positive definite (CG needs a symmetric positive "
+                   "definite one)";
+    }
     SETERRQ(comm, PETSC_ERR_NOT_CONVERGED, "%s", msg.c_str());
   }
   // A converged Krylov method tests its recursively updated residual, which drifts from

@@ -1125,5 +1125,47 @@ TEST(Multigrid, LinearRunsStoreNoRotationsAndTheCycleWorksInTheCallersVectors) {
   MatDestroy(&A);
 }
 
+TEST(Multigrid, AnIndefinitePreconditionerIsNamedAndSinglePrecisionIsBlamedOnlyWhenSet) {
+  // CG stops with DIVERGED_INDEFINITE_PC when <r, M^-1 r> < 0; the message says what that
+  // means, and with -gmg_precision single (which can make a coarse level indefinite on a
+  // large slender body; doc/theory.md, "Mixed precision") that double is the remedy. Here
+  // the operator and the multigrid are built from negated moduli: M^-1 is negative definite.
+  std::string linear = kBlock;
+  linear.replace(linear.find("corotational"), 12, "linear");
+  for (const char* precision : {"double", "single"}) {
+    const std::string options = std::string("-gmg_levels 3 -gmg_precision ") + precision;
+    Job job(PETSC_COMM_WORLD, linear, 8, options.c_str());
+    auto& C = job.model.cells;
+    assembly::set_identity_rotations(C);
+    for (std::size_t e = 0; e < C.lambda.size(); ++e) C.lambda[e] *= -1.0, C.mu[e] *= -1.0;
+    for (auto& K : C.kind_stiffness)
+      for (double& k : K) k = -k;
+    auto* mg = job.sim->multigrid();
+    check_petsc(mg->update(C, {1.0, 0.0, true}, job.model.boundary.constraints.rows), "update");
+    KSP ksp = job.sim->ksp();
+    KSPSetOperators(ksp, mg->fine_operator(), mg->fine_operator());
+    Vec b, x;
+    MatCreateVecs(mg->fine_operator(), &x, &b);
+    fill(b, 0.2);
+    VecSet(x, 0.0);
+    solve::SolveRecord record;
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    const PetscErrorCode ierr = solve::solve(ksp, b, x, &record);
+    PetscPopErrorHandler();
+    EXPECT_EQ(ierr, PETSC_ERR_NOT_CONVERGED) << precision;
+    EXPECT_EQ(record.reason, KSP_DIVERGED_INDEFINITE_PC) << precision;
+    char* message = nullptr;
+    PetscErrorMessage(ierr, nullptr, &message);
+    const std::string m = message ? message : "";
+    EXPECT_NE(m.find("DIVERGED_INDEFINITE_PC"), std::string::npos) << m;
+    EXPECT_NE(m.find("not positive definite"), std::string::npos) << m;
+    EXPECT_EQ(m.find("-gmg_precision double") != std::string::npos,
+              std::string(precision) == "single")
+        << m;
+    VecDestroy(&b);
+    VecDestroy(&x);
+  }
+}
+
 }  // namespace
 }  // namespace hexcut::testing
