@@ -1,4 +1,5 @@
-"""Largest lattice one process runs on this machine (issue 12; doc/benchmarks.md, "Largest lattice").
+"""Largest lattice one process runs on this machine (issue 12; doc/benchmarks.md, "Memory per DOF and
+the largest lattice").
 
 Runs a deck on one rank at each --refine factor (-hexcut_refine: h / R, dims * R) into a
 scratch folder and prints DOFs, peak resident memory, bytes per DOF, iterations and the time
@@ -6,7 +7,7 @@ per phase (scripts/study/scaling.py's run: PETSc events, the result file's solve
 A run that fails (out of memory, a solver failure: exit 3) is reported, not hidden.
 
     /usr/bin/python3 scripts/bench/largest_lattice.py input/examples/cantilever.yaml \\
-        --refine 4.5 12 [-- -gmg_precision single]
+        --refine 4.5 13 [-- -gmg_precision single]
 """
 import argparse
 import os
@@ -14,15 +15,12 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "study"))
-from scaling import run  # noqa: E402
+from scaling import parse_with_options, run  # noqa: E402
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("deck")
 ap.add_argument("--refine", type=float, nargs="+", required=True)
-argv = sys.argv[1:]
-options = argv[argv.index("--") + 1:] if "--" in argv else []
-a = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
-a.options = options  # hexcut options after --
+a = parse_with_options(ap, instead="--refine")
 if any(r <= 0 for r in a.refine):
     ap.error("--refine must be > 0")
 print("| refine | cells | DOFs | peak MiB | bytes/DOF | its | voxelize | topology | setup | solve | "

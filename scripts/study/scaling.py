@@ -37,6 +37,21 @@ EVENTS = {"voxelize": ["hexcutVoxelize"], "topology": ["hexcutTopology"], "setup
           "cuts": ["hexcutCutLinks", "hexcutRebuild"]}
 
 
+def parse_with_options(ap, instead="--refine, --keep"):
+    """Parses sys.argv with `ap`; the words after '--' become a.options, hexcut options for
+    every run, less those run() sets itself (an error naming them and `instead`)."""
+    ap.epilog = "Options after '--' go to every hexcut run (e.g. -- -pc_type gamg)."
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    a = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
+    a.options = extra
+    owned = ("-hexcut_refine", "-hexcut_output_directory", "-log_view", "--check", "--restart", "--overwrite")
+    for o in extra:
+        if o.lower() in owned:
+            ap.error(f"'{o}' after '--' is set by the study itself (use {instead})")
+    return a
+
+
 def arguments(description, weak):
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument("deck", help="the hexcut deck (YAML)")
@@ -49,15 +64,7 @@ def arguments(description, weak):
                     help="MPI launcher (default: $HEXCUT_MPIEXEC or mpiexec); '-n P' is appended")
     ap.add_argument("--png", default=None, help="plot file (default: <deck name>_<study>.png here)")
     ap.add_argument("--keep", default=None, help="keep the runs' result files and logs in this folder")
-    ap.epilog = "Options after '--' go to every hexcut run (e.g. -- -pc_type gamg)."
-    argv = sys.argv[1:]
-    extra = argv[argv.index("--") + 1:] if "--" in argv else []
-    a = ap.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
-    a.options = extra
-    owned = ("-hexcut_refine", "-hexcut_output_directory", "-log_view", "--check", "--restart", "--overwrite")
-    for o in extra:
-        if o.lower() in owned:
-            ap.error(f"'{o}' after '--' is set by the study itself (use --refine, --keep)")
+    a = parse_with_options(ap)
     if any(p < 1 for p in a.ranks):
         ap.error("--ranks must be >= 1")
     if a.repeats < 1:

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <type_traits>
 
 #include "element/trilinear.hpp"
 #include "topology/union_find.hpp"
@@ -88,11 +89,13 @@ std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::Ver
   const int rank = layout.rank;
   std::vector<Level> levels(1);
   levels[0].graph = std::move(fine);
-  // Not owned (an empty deleter): the simulation's.
-  levels[0].copies_ptr = std::shared_ptr<const topology::VertexCopies>(&copies, [](const auto*) {});
-  levels[0].partition_ptr =
-      std::shared_ptr<const topology::Partition>(&partition, [](const auto*) {});
-  levels[0].layout_ptr = std::shared_ptr<const topology::DofLayout>(&layout, [](const auto*) {});
+  // The simulation's, not owned: an empty deleter.
+  const auto borrowed = [](const auto& x) {
+    return std::shared_ptr<const std::decay_t<decltype(x)>>(&x, [](const auto*) {});
+  };
+  levels[0].copies_ptr = borrowed(copies);
+  levels[0].partition_ptr = borrowed(partition);
+  levels[0].layout_ptr = borrowed(layout);
   const int max_levels = 1 + int(std::lround(std::log2(double(std::max(1, partition.superblock)))));
   const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
   while (int(levels.size()) < wanted) {

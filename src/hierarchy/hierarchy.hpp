@@ -26,7 +26,7 @@ enum class Coarsening { components, naive };
 
 /// One level of the hierarchy. Its vertex copies, partition and DOF layout are shared, not
 /// copied: level 0's are the simulation's own (build_hierarchy's arguments, which must
-/// outlive the levels: about 35 bytes per DOF that every rank would otherwise hold twice),
+/// outlive the levels: about 30 bytes per DOF that every rank would otherwise hold twice),
 /// coarse levels own theirs.
 struct Level {
   topology::CellGraph graph;

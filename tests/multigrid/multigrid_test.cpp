@@ -27,6 +27,12 @@ const std::string kBlock =
     "analysis: {type: static, formulation: corotational}\n"
     "solver: {type: gmg, rtol: 1.0e-10}\n";
 
+/// kBlock with the linear formulation (no rotations stored).
+std::string linear_block() {
+  std::string yaml = kBlock;
+  return yaml.replace(yaml.find("corotational"), 12, "linear");
+}
+
 /// Random (deterministic) rotations: rotations of a smooth displacement field.
 void set_rotations(Job& job) {
   const auto& D = job.model.layout;
@@ -1084,8 +1090,7 @@ TEST(Multigrid, LinearRunsStoreNoRotationsAndTheCycleWorksInTheCallersVectors) {
   // A linear run keeps no per-cell rotations (72 bytes per cell) and its operators are
   // still those of R = I: the multigrid's fine operator equals the constrained assembled
   // matrix, and its coarse blocks stay P^T A P.
-  std::string linear = kBlock;
-  linear.replace(linear.find("corotational"), 12, "linear");
+  const std::string linear = linear_block();
   const assembly::OperatorWeights w{1.0, 3.0, true};
   Job job(PETSC_COMM_WORLD, linear, 8, "-gmg_levels 3");
   auto& C = job.model.cells;
@@ -1130,8 +1135,7 @@ TEST(Multigrid, AnIndefinitePreconditionerIsNamedAndSinglePrecisionIsBlamedOnlyW
   // means, and with -gmg_precision single (which can make a coarse level indefinite on a
   // large slender body; doc/theory.md, "Mixed precision") that double is the remedy. Here
   // the operator and the multigrid are built from negated moduli: M^-1 is negative definite.
-  std::string linear = kBlock;
-  linear.replace(linear.find("corotational"), 12, "linear");
+  const std::string linear = linear_block();
   for (const char* precision : {"double", "single"}) {
     const std::string options = std::string("-gmg_levels 3 -gmg_precision ") + precision;
     Job job(PETSC_COMM_WORLD, linear, 8, options.c_str());
