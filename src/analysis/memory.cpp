@@ -3,6 +3,7 @@
 #include <petscsys.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -18,8 +19,10 @@ constexpr double kPerLatticeCell = 14.0;      // dense material grid + cell inde
 constexpr double kPerImageCell = 8.0;         // dense Young's modulus grid of an image
 constexpr double kReplicatedPerCell = 300.0;  // cells, links, vertex copies, partition
 
-/// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner).
-double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells) {
+/// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner),
+/// for `cells` filled cells of a lattice of `dims` cells.
+double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells,
+                             const std::array<int, 3>& dims) {
   switch (s.type) {
     case deck::Solver::Type::gmg:
     case deck::Solver::Type::gmg_cycles:
@@ -29,10 +32,18 @@ double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells) {
     case deck::Solver::Type::hypre:
     case deck::Solver::Type::gamg:
       return 9.5e3;
-    case deck::Solver::Type::direct:
+    case deck::Solver::Type::direct: {
       // Nested-dissection fill of a 3-D grid grows like n^(4/3): per cell like n^(1/3);
-      // measured at 4096 and 13824 cells the exponent was nearer 1/4.
-      return 28e3 * std::pow(std::max(1.0, double(cells) / 4096.0), 0.25);
+      // measured on cubes of 4096 and 13824 cells the exponent was nearer 1/4. A bar
+      // (one side much longer) is cut across first, into cubes of its cross-section's
+      // size, so its fill per cell is that of a cube with the middle side d: n is capped
+      // at d^3. Measured peaks: 192 x 24 x 24 cells 3.96 GiB (estimate 4.0), 1280 x 16 x 16
+      // 8.96 GiB (8.7); without the cap the estimates were 6.6 and 25.7 (doc/benchmarks.md).
+      std::array<double, 3> d{double(dims[0]), double(dims[1]), double(dims[2])};
+      std::sort(d.begin(), d.end());
+      const double n = std::min(double(cells), d[1] * d[1] * d[1]);
+      return 28e3 * std::pow(std::max(1.0, n / 4096.0), 0.25);
+    }
   }
   return 9.5e3;
 }
@@ -69,7 +80,7 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
   double bytes =
       kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) * double(lattice_cells);
   if (material_cells > 0) {
-    double shared = solver_bytes_per_cell(deck.solver, material_cells);
+    double shared = solver_bytes_per_cell(deck.solver, material_cells, deck.lattice.dims);
     // Corotational dynamic runs on composite elements of level l add each element's own
     // data (a 24x24 stiffness, its Gram matrix and gradients: 5.6 kB per element, one per
     // 8^l cells) and the preimage's AIJ interpolation (~300 B per cell): measured 1.1 kB

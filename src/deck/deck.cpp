@@ -373,6 +373,11 @@ std::vector<Material> parse_materials(const Context& c, const YAML::Node& n) {
     m.poisson_ratio = get_double(c, v["nu"], "nu");
     if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5))
       c.fail(v["nu"], "nu must be in (-1, 0.5), got " + v["nu"].Scalar());
+    if (m.poisson_ratio > 0.49)
+      c.warn(v["nu"], "nu = " + v["nu"].Scalar() +
+                          " > 0.49: trilinear displacement elements lock as nu -> 0.5 (the "
+                          "displacements come out too small, the stresses oscillate); hexcut has "
+                          "no mixed u-p formulation (doc/user-guide.md, \"materials\")");
     m.density = positive(c, v["rho"], "rho");
     out.push_back(m);
   }
@@ -707,8 +712,9 @@ void parse_boundary(const Context& c, const YAML::Node& n, Deck& d) {
       if (!t["where"] || (!t["value"] && !t["force"]))
         c.fail(t, "traction needs 'where' and 'value' [Pa] or 'force' [N]");
       if (t["value"] && t["force"])
-        c.fail(t["force"], "traction: give either 'value' (force per area, Pa) or 'force' (the "
-                           "total force, N), not both");
+        c.fail(t["force"],
+               "traction: give either 'value' (force per area, Pa) or 'force' (the "
+               "total force, N), not both");
       Traction tr;
       tr.selector = parse_selector(c, t["where"], "traction.where");
       if (t["value"]) {

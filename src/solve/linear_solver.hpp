@@ -6,6 +6,7 @@
 
 #include <petscksp.h>
 
+#include <cfloat>
 #include <string>
 
 #include "deck/deck.hpp"
@@ -20,6 +21,7 @@ struct SolveRecord {
   double setup_seconds = 0.0;  // KSPSetUp (preconditioner build, factorization)
   double solve_seconds = 0.0;  // KSPSolve after setup
   KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
+  bool roundoff_limited = false;  // above kTrueResidualFactor x rtol, at round-off: accepted
 };
 
 /// Puts the deck's solver.petsc_options into the options database, unless the command
@@ -46,10 +48,20 @@ PetscErrorCode set_operator(KSP ksp, const deck::Solver& solver, Mat A, Vec coor
 /// the requested rtol before the solve counts as failed (doc/user-guide.md).
 constexpr double kTrueResidualFactor = 10.0;
 
+/// A true residual above kTrueResidualFactor x rtol is accepted (with a warning) when the
+/// normwise backward error ||b - Ax|| / (||A|| ||x|| + ||b||) is at most this: the
+/// round-off level of double precision, which rtol cannot push below (doc/user-guide.md,
+/// "Exit codes").
+constexpr double kRoundoffBackwardError = 100 * DBL_EPSILON;
+
+/// Power-iteration products for the ||A|| of that backward error.
+constexpr int kNormIterations = 30;
+
 /// Solves A x = b (x holds the initial guess; nonzero guesses are used) and records
 /// what happened in `record`. Fails with PETSC_ERR_NOT_CONVERGED (a solver failure, exit 3)
 /// if the solve diverged or did not converge, or when its true relative residual exceeds
-/// kTrueResidualFactor x rtol (except for solves without a norm, gmg-cycles).
+/// kTrueResidualFactor x rtol and its backward error exceeds kRoundoffBackwardError
+/// (except for solves without a norm, gmg-cycles).
 PetscErrorCode solve(KSP ksp, Vec b, Vec x, SolveRecord* record);
 
 std::string reason_string(KSPConvergedReason reason);

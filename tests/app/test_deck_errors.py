@@ -94,6 +94,19 @@ def main():
     rc, out, err = run(["--check", solid, "-hexcut_memory_available", "0.1"])
     check(rc == 2 and f"{solid}:1: this job (2560 cells, solver direct, 1 rank(s)) needs about" in err,
           f"a job too large for the memory is refused after voxelization: exit {rc}: {err.strip()}")
+    # The direct solver's estimate against measured peaks (VmHWM, doc/benchmarks.md: the
+    # 8:1:1 bar of 192 x 24 x 24 cells peaked at 3.96 GiB, a 1280 x 16 x 16 bar at 8.96 GiB),
+    # within the 30% the user guide promises; a bar's fill is that of its cross-section's
+    # cube (the estimate of a cube of the same cells, 6.6 and 25.7 GiB, refused them).
+    import re
+    for dims, h, box, measured in [("[192, 24, 24]", "0.005208333333333333", "[1.0, 0.125, 0.125]", 3.96),
+                                   ("[1280, 16, 16]", "0.00625", "[8.0, 0.1, 0.1]", 8.96)]:
+        bar = write(d, "bar.yaml", GOOD.replace("h: 0.1, dims: [10, 2, 2]", f"h: {h}, dims: {dims}")
+                    .replace("max: [1.0, 0.2, 0.2]", f"max: {box}").replace("point: [1.0, 0, 0]", f"point: [{box[1:4]}, 0, 0]"))
+        rc, out, err = run(["--check", bar, "-hexcut_memory_available", "0.5"])
+        m = re.search(r"solver direct, 1 rank\(s\)\) needs about ([0-9.]+) GiB per rank", err)
+        check(rc == 2 and m and abs(float(m.group(1)) / measured - 1) < 0.3,
+              f"direct solver's estimate for a {dims} bar within 30% of the measured {measured} GiB: {err.strip()[-200:]}")
     for args, message in [(["-ksp_type", "nosuchtype"], "invalid PETSc option: Unable to find requested KSP type nosuchtype"),
                           (["-ksp_type", "cg", "-ksp_rtol", "abc"], "invalid PETSc option: Input string abc has no numeric value"),
                           (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB")]:
