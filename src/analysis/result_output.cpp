@@ -112,10 +112,6 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
   const auto& C = M.cells;
   const std::size_t n = D.cells.size();
   out->sigma.resize(6 * n);
-  out->von_mises.resize(n);
-  out->pressure.resize(n);
-  out->principal.resize(3 * n);
-  out->directions.resize(9 * n);
   out->energy_density.resize(n);
   Vec ul;
   PetscCall(DMGetLocalVector(M.dm, &ul));
@@ -134,18 +130,11 @@ PetscErrorCode compute_stress(const Model& M, bool corotational, Vec u, CellStre
     double u24[24];
     element::gather_cell(ua, D.cell_corners[e].data(), u24);
     const double* R = corotational ? &rotations[9 * e] : identity;
-    auto s = element::recover_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e]);
-    if (!C.initial_stress.empty()) {  // sigma0 + sigma(u), and the fields of that sum
-      double total[6];
-      for (int i = 0; i < 6; ++i) total[i] = s.sigma[i] + C.initial_stress[6 * e + i];
-      s = element::stress_fields(total);
-    }
-    std::copy(s.sigma, s.sigma + 6, &out->sigma[6 * e]);
-    out->von_mises[e] = s.von_mises;
-    out->pressure[e] = s.pressure;
-    std::copy(s.principal, s.principal + 3, &out->principal[3 * e]);
-    std::copy(s.directions, s.directions + 9, &out->directions[9 * e]);
-    out->energy_density[e] = element::strain_energy_density(s.sigma, C.lambda[e], C.mu[e]);
+    double* sigma = &out->sigma[6 * e];
+    element::recover_cell_stress(u24, x24, R, C.h, C.lambda[e], C.mu[e], sigma);
+    if (!C.initial_stress.empty())  // sigma0 + sigma(u): the derived fields are of that sum
+      for (int i = 0; i < 6; ++i) sigma[i] += C.initial_stress[6 * e + i];
+    out->energy_density[e] = element::strain_energy_density(sigma, C.lambda[e], C.mu[e]);
   }
   PetscCall(VecRestoreArrayRead(ul, &ua));
   PetscCall(DMRestoreLocalVector(M.dm, &ul));
@@ -363,7 +352,7 @@ PetscErrorCode ResultOutput::write_comparison(std::int64_t step, const CellStres
       q += (k < 3 ? 1.0 : 2.0) * diff[6 * e + k] * diff[6 * e + k];  // tensor norm
     }
     norm[e] = std::sqrt(q);
-    dvm[e] = f.von_mises[e] - element::von_mises_stress(s0);
+    dvm[e] = element::von_mises_stress(s1) - element::von_mises_stress(s0);
     dsed[e] = f.energy_density[e] - W0;
     shield[e] = W0 > 0.0 ? (W0 - f.energy_density[e]) / W0 : nan;
     const auto m = std::size_t(L.material[c]);
@@ -432,29 +421,39 @@ PetscErrorCode ResultOutput::write_step(const State& s, bool corotational,
       PetscCall(compute_stress(model_, corotational, s.u, &f));
     }
     if (o.has_field("stress")) PetscCall(write_cell_values(s.step, "stress", 6, f.sigma, "Pa"));
-    if (o.has_field("von_mises"))
-      PetscCall(write_cell_values(s.step, "von_mises", 1, f.von_mises, "Pa"));
-    if (o.has_field("pressure"))
-      PetscCall(write_cell_values(s.step, "pressure", 1, f.pressure, "Pa"));
     if (o.has_field("strain_energy_density"))
       PetscCall(write_cell_values(s.step, "strain_energy_density", 1, f.energy_density, "Pa"));
     if (reference_) PetscCall(write_comparison(s.step, f));
-    // One dataset per principal value and direction (format version 2): scalars to colour
-    // by and vectors that ParaView's Glyph takes, where a (n, 3) or (n, 9) table reads as
-    // one vector or 9 unnamed components (doc/output-format.md).
-    const std::size_t n = f.von_mises.size();
-    std::vector<double> value(n), direction(3 * n);
-    for (int i = 0; i < 3; ++i) {
+    // The derived fields, one dataset at a time through two buffers (value: 1 per cell,
+    // direction: 3), each from the tensor. One dataset per principal value and direction
+    // (format version 2): scalars to colour by and vectors that ParaView's Glyph takes,
+    // where a (n, 3) or (n, 9) table reads as one vector or 9 unnamed components
+    // (doc/output-format.md). The eigenproblem is solved once per cell and index i, for
+    // the value and the direction together.
+    const std::size_t n = f.energy_density.size();
+    const double* sigma = f.sigma.data();
+    std::vector<double> value(n), direction;
+    if (o.has_field("von_mises")) {
+      for (std::size_t e = 0; e < n; ++e) value[e] = element::von_mises_stress(&sigma[6 * e]);
+      PetscCall(write_cell_values(s.step, "von_mises", 1, value, "Pa"));
+    }
+    if (o.has_field("pressure")) {
+      for (std::size_t e = 0; e < n; ++e) value[e] = element::pressure(&sigma[6 * e]);
+      PetscCall(write_cell_values(s.step, "pressure", 1, value, "Pa"));
+    }
+    const bool values = o.has_field("principal_stress"),
+               directions = o.has_field("principal_directions");
+    if (directions) direction.resize(3 * n);
+    for (int i = 0; i < 3 && (values || directions); ++i) {
+      for (std::size_t e = 0; e < n; ++e) {
+        const auto c = element::stress_fields(&sigma[6 * e]);
+        value[e] = c.principal[i];
+        if (directions) std::copy_n(&c.directions[3 * i], 3, &direction[3 * e]);
+      }
       const std::string k = std::to_string(i + 1);
-      if (o.has_field("principal_stress")) {
-        for (std::size_t e = 0; e < n; ++e) value[e] = f.principal[3 * e + i];
-        PetscCall(write_cell_values(s.step, "principal_stress_" + k, 1, value, "Pa"));
-      }
-      if (o.has_field("principal_directions")) {
-        for (std::size_t e = 0; e < n; ++e)
-          for (int d = 0; d < 3; ++d) direction[3 * e + d] = f.directions[9 * e + 3 * i + d];
+      if (values) PetscCall(write_cell_values(s.step, "principal_stress_" + k, 1, value, "Pa"));
+      if (directions)
         PetscCall(write_cell_values(s.step, "principal_direction_" + k, 3, direction, "1"));
-      }
     }
   }
   writer_.end_step();

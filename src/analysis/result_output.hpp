@@ -20,9 +20,12 @@
 namespace hexcut::analysis {
 
 /// Stress of the local cells from the global displacement (ghosts exchanged through the DM).
-/// Corotational runs use each cell's own rotation (doc/theory.md, "Stress").
+/// Corotational runs use each cell's own rotation (doc/theory.md, "Stress"). Only the
+/// tensor is kept: the derived fields (von Mises, pressure, principal values and
+/// directions) are element::stress_fields(sigma), computed per dataset as it is written,
+/// which holds 7 doubles per cell instead of 21 at the output's peak.
 struct CellStressFields {
-  std::vector<double> sigma, von_mises, pressure, principal, directions;  // 6,1,1,3,9 per cell
+  std::vector<double> sigma;           // 6 per cell [Pa]: sigma0 + sigma(u), ParaView order
   std::vector<double> energy_density;  // 1 per cell: 1/2 sigma:epsilon [Pa]
 };
 PetscErrorCode compute_stress(const Model& model, bool corotational, Vec u, CellStressFields* out);

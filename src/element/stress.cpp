@@ -12,7 +12,7 @@ CellStress stress_fields(const double sigma[6]) {
   CellStress out{};
   for (int k = 0; k < 6; ++k) out.sigma[k] = sigma[k];
   out.von_mises = von_mises_stress(sigma);
-  out.pressure = -(sigma[0] + sigma[1] + sigma[2]) / 3.0;
+  out.pressure = pressure(sigma);
 
   Eigen::Matrix3d s;
   s << sigma[0], sigma[3], sigma[5], sigma[3], sigma[1], sigma[4], sigma[5], sigma[4], sigma[2];
@@ -41,13 +41,19 @@ CellStress stress_fields(const double sigma[6]) {
   return out;
 }
 
-CellStress recover_stress(const double* u24, const double* x24_ref, const double R[9], double h,
-                          double lambda, double mu) {
-  double d[kElementDofs], eps[6], sig[6];
+void recover_cell_stress(const double* u24, const double* x24_ref, const double R[9], double h,
+                         double lambda, double mu, double sigma[6]) {
+  double d[kElementDofs], eps[6];
   corotated_displacement(R, x24_ref, u24, d);
   strain_at_centre(d, h, eps);
-  hooke_stress(eps, lambda, mu, sig);
-  rotate_tensor(R, sig, sig);
+  hooke_stress(eps, lambda, mu, sigma);
+  rotate_tensor(R, sigma, sigma);
+}
+
+CellStress recover_stress(const double* u24, const double* x24_ref, const double R[9], double h,
+                          double lambda, double mu) {
+  double sig[6];
+  recover_cell_stress(u24, x24_ref, R, h, lambda, mu, sig);
   return stress_fields(sig);
 }
 

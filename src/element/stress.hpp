@@ -27,9 +27,19 @@ struct CellStress {
 CellStress recover_stress(const double* u24, const double* x24_ref, const double R[9], double h,
                           double lambda, double mu);
 
+/// The stress tensor alone of recover_stress (6 values, ParaView order, into `sigma`), for
+/// callers that derive the other fields later (stress_fields) or not at all.
+void recover_cell_stress(const double* u24, const double* x24_ref, const double R[9], double h,
+                         double lambda, double mu, double sigma[6]);
+
 /// Derived fields (von Mises, pressure, principal values and directions) of a given stress
 /// tensor; the result's sigma is a copy of the input.
 CellStress stress_fields(const double sigma[6]);
+
+/// Hydrostatic pressure -tr(s)/3 of a tensor in ParaView order (positive = compression).
+inline double pressure(const double s[6]) {
+  return -(s[0] + s[1] + s[2]) / 3.0;
+}
 
 /// von Mises equivalent stress of a symmetric tensor in ParaView order.
 inline double von_mises_stress(const double s[6]) {

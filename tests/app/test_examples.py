@@ -36,6 +36,33 @@ def plug_falls(path):
     return ok, fall
 
 
+def check_derived_stress(check, path):
+    """von Mises, pressure and the principal values and directions the file holds are those
+    of its stress tensor in every cell (numpy's eigh, independent of hexcut's Eigen): the
+    output derives them from the tensor one dataset at a time."""
+    with h5py.File(path, "r") as f:
+        g = f["steps/000001"]
+        s = g["stress"][:]  # xx yy zz xy yz xz
+        vm, pr = g["von_mises"][:], g["pressure"][:]
+        lam = np.stack([g[f"principal_stress_{k}"][:] for k in (1, 2, 3)], axis=1)
+        dirs = np.stack([g[f"principal_direction_{k}"][:] for k in (1, 2, 3)], axis=1)
+    T = np.empty((len(s), 3, 3))
+    for (i, j), c in {(0, 0): 0, (1, 1): 1, (2, 2): 2, (0, 1): 3, (1, 2): 4, (0, 2): 5}.items():
+        T[:, i, j] = T[:, j, i] = s[:, c]
+    scale = np.abs(s).max()
+    dev = T - np.trace(T, axis1=1, axis2=2)[:, None, None] / 3 * np.eye(3)
+    vm_ref = np.sqrt(1.5 * np.einsum("eij,eij->e", dev, dev))
+    check(np.abs(vm - vm_ref).max() < 1e-12 * scale and np.abs(pr + np.trace(T, axis1=1, axis2=2) / 3).max()
+          < 1e-12 * scale, f"von Mises and pressure are those of the stress tensor (max |sigma| {scale:.3g} Pa)")
+    ref = np.linalg.eigvalsh(T)[:, ::-1]  # descending: most tensile first
+    res = np.einsum("eij,ekj->eki", T, dirs) - lam[:, :, None] * dirs  # sigma d_k - lambda_k d_k
+    check(np.abs(lam - ref).max() < 1e-10 * scale and np.abs(res).max() < 1e-8 * scale
+          and np.allclose(np.linalg.norm(dirs, axis=2), 1, atol=1e-12)
+          and np.allclose(np.linalg.det(dirs), 1, atol=1e-10),
+          f"principal values descending = eig(stress) (max diff {np.abs(lam - ref).max() / scale:.1e} of max), "
+          f"directions unit, right-handed, sigma d = lambda d (max residual {np.abs(res).max() / scale:.1e})")
+
+
 def main():
     d = tempdir()
     check = Checks()
@@ -57,6 +84,7 @@ def main():
     kappa = 10 * (1 + nu) / (12 + 11 * nu)
     delta = P * L**3 / (3 * E * I) + P * L / (kappa * G * A)
     check(abs(tip / delta - 1) < 0.03, f"cantilever tip deflection {tip:.4e} m vs Timoshenko {delta:.4e} m")
+    check_derived_stress(check, f"{d}/results/cantilever.h5")
 
     rc, out, err = run([os.path.join(SOURCE, "input/examples/cantilever_dynamic.yaml"), "-hexcut_max_steps", "20"],
                        cwd=d)
