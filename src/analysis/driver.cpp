@@ -81,7 +81,7 @@ PetscErrorCode Driver::resume() {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Driver::write(const State& s, bool step, bool checkpoint) {
+PetscErrorCode Driver::write(const State& s, bool step, bool checkpoint, bool last) {
   PetscFunctionBeginUser;
   if (!out_) PetscFunctionReturn(0);
   if (step) {
@@ -90,7 +90,15 @@ PetscErrorCode Driver::write(const State& s, bool step, bool checkpoint) {
     const bool ids = deck_.output.has_field("composite_element");
     std::vector<double> composite;
     if (ids) composite = sim_->composite_element_ids();
-    PetscCall(out_->write_step(s, sim_->corotational(), ids ? &composite : nullptr));
+    const bool corotational = sim_->corotational();
+    if (last) {
+      // Nothing solves after the last step: the solver, the multigrid and the DM's cached
+      // work vectors go before the output allocates its own, so that writing the result
+      // is not the run's peak of memory (doc/benchmarks.md, "Memory per DOF").
+      sim_.reset();
+      PetscCall(DMClearGlobalVectors(model_.dm));
+    }
+    PetscCall(out_->write_step(s, corotational, ids ? &composite : nullptr));
   }
   if (checkpoint) PetscCall(out_->write_checkpoint(s));
   PetscFunctionReturn(0);
@@ -121,7 +129,7 @@ PetscErrorCode Driver::run(std::int64_t max_steps, bool* reached_end) {
     const bool stop = max_steps > 0 && state_.step - first >= max_steps && !last;
     const int every = deck_.output.every, ce = deck_.output.checkpoint_every;
     PetscCall(write(state_, last || stop || state_.step % every == 0,
-                    last || stop || (ce > 0 && state_.step % ce == 0)));
+                    last || stop || (ce > 0 && state_.step % ce == 0), last));
     if (hooks_.on_step) hooks_.on_step(state_);
     if (stop) PetscFunctionReturn(0);
   }

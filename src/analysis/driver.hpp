@@ -75,6 +75,7 @@ class Driver {
   std::int64_t total_steps() const;
   bool dynamic() const;
   const EnergyMonitor& energy() const { return energy_; }
+  /// The current Simulation; released when run() wrote the last step to an output.
   Simulation& simulation() { return *sim_; }
 
  private:
@@ -84,8 +85,10 @@ class Driver {
   /// After the topology changed: a Simulation (solver, multigrid hierarchy) for the new DM
   /// and the output's tables for the new vertex copies.
   PetscErrorCode follow_topology();
-  /// The step's output and/or a checkpoint (nothing without an output).
-  PetscErrorCode write(const State& s, bool step, bool checkpoint);
+  /// The step's output and/or a checkpoint (nothing without an output). `last`: the
+  /// analysis' last step; the Simulation is released before the output is written (with
+  /// an output only), so simulation() must not be called after run() reached the end.
+  PetscErrorCode write(const State& s, bool step, bool checkpoint, bool last = false);
 
   MPI_Comm comm_;
   const deck::Deck& deck_;

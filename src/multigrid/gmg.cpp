@@ -20,7 +20,6 @@ struct Multigrid::LevelData {
   bool own_dm = false;
   Vec b = nullptr, x = nullptr, r = nullptr, tmp = nullptr;  // global
   Vec dir = nullptr;                                         // global: Chebyshev direction
-  Vec xl = nullptr, yl = nullptr;                            // local
   Vec mask = nullptr;                                        // global: 1 free, 0 prescribed or dead
   const assembly::CellOperator* op = nullptr;                // level 0: fine_op_; else *stored
   std::unique_ptr<StoredCells> stored;                       // l >= 1: Galerkin blocks
@@ -148,8 +147,6 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
       PetscCall(VecDuplicate(d->r, &d->b));
       PetscCall(VecDuplicate(d->r, &d->x));
     }
-    PetscCall(DMCreateLocalVector(d->dm, &d->xl));
-    PetscCall(VecDuplicate(d->xl, &d->yl));
     const auto& D = lev.layout();
     d->cell_pos.resize(D.cells.size());
     d->local_cell.assign(lev.graph.num_cells(), -1);
@@ -276,8 +273,6 @@ Multigrid::~Multigrid() {
     VecDestroy(&d->tmp);
     VecDestroy(&d->dir);
     VecDestroy(&d->mask);
-    VecDestroy(&d->xl);
-    VecDestroy(&d->yl);
     MatDestroy(&d->P);
     MatDestroy(&d->P_trilinear);
     MatDestroy(&d->A);
@@ -606,9 +601,15 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
   // In parallel each colour needs the ghosts of x before and the sum of the residual
   // contributions over ranks after.
   const bool serial = D.num_ranks == 1;
+  // Local work vectors from the DM's cache, not the level's own: level 0's are then the
+  // ones the fine operator's application uses (assembly::apply), and a Chebyshev run
+  // never allocates them.
+  Vec xl, yl;
+  PetscCall(DMGetLocalVector(d.dm, &xl));
+  PetscCall(DMGetLocalVector(d.dm, &yl));
   if (!serial) {
-    PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
-    PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+    PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, xl));
+    PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, xl));
   }
   for (int kk = 0; kk < 8; ++kk) {
     const int k = reverse ? 7 - kk : kk;
@@ -616,8 +617,8 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
     // corner of colour k, so a colour costs 1/8 of an operator application.
     const PetscScalar* xa;
     PetscScalar* ya;
-    PetscCall(VecGetArrayRead(serial ? x : d.xl, &xa));
-    PetscCall(VecGetArray(d.yl, &ya));
+    PetscCall(VecGetArrayRead(serial ? x : xl, &xa));
+    PetscCall(VecGetArray(yl, &ya));
     if (serial) {
       for (auto i : d.colour_list[k])
         for (int c = 0; c < 3; ++c) ya[3 * i + c] = 0.0;
@@ -625,13 +626,13 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
       std::fill(ya, ya + 3 * D.num_local(), 0.0);
     }
     d.op->apply_add_colour(d.cell_pos, k, xa, ya);
-    PetscCall(VecRestoreArrayRead(serial ? x : d.xl, &xa));
-    PetscCall(VecRestoreArray(d.yl, &ya));
-    Vec r = d.yl;  // serial: the residual contributions are already complete
+    PetscCall(VecRestoreArrayRead(serial ? x : xl, &xa));
+    PetscCall(VecRestoreArray(yl, &ya));
+    Vec r = yl;  // serial: the residual contributions are already complete
     if (!serial) {
       PetscCall(VecSet(d.r, 0.0));
-      PetscCall(DMLocalToGlobalBegin(d.dm, d.yl, ADD_VALUES, d.r));
-      PetscCall(DMLocalToGlobalEnd(d.dm, d.yl, ADD_VALUES, d.r));
+      PetscCall(DMLocalToGlobalBegin(d.dm, yl, ADD_VALUES, d.r));
+      PetscCall(DMLocalToGlobalEnd(d.dm, yl, ADD_VALUES, d.r));
       r = d.r;
     }
     const PetscScalar *ba, *ra, *ma;
@@ -654,10 +655,12 @@ PetscErrorCode Multigrid::gauss_seidel(int l, Vec b, Vec x, bool reverse) {
     PetscCall(VecRestoreArrayRead(r, &ra));
     PetscCall(VecRestoreArrayRead(b, &ba));
     if (!serial) {
-      PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, d.xl));
-      PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, d.xl));
+      PetscCall(DMGlobalToLocalBegin(d.dm, x, INSERT_VALUES, xl));
+      PetscCall(DMGlobalToLocalEnd(d.dm, x, INSERT_VALUES, xl));
     }
   }
+  PetscCall(DMRestoreLocalVector(d.dm, &yl));
+  PetscCall(DMRestoreLocalVector(d.dm, &xl));
   PetscFunctionReturn(0);
 }
 
