@@ -1,6 +1,7 @@
 """Each class of deck error gives 'deck.yaml:LINE: message' and exit code 2, before any
 heavy work; --version and --check work; a non-converging solve gives exit 3 and keeps
 the steps written so far readable."""
+import os
 import sys
 
 import h5py
@@ -107,6 +108,17 @@ def main():
         m = re.search(r"solver direct, 1 rank\(s\)\) needs about ([0-9.]+) GiB per rank", err)
         check(rc == 2 and m and abs(float(m.group(1)) / measured - 1) < 0.3,
               f"direct solver's estimate for a {dims} bar within 30% of the measured {measured} GiB: {err.strip()[-200:]}")
+    # gmg's estimate against the largest-lattice runs (doc/benchmarks.md, "Memory per DOF":
+    # the cantilever at 1.48M DOFs peaked at 734 MiB, at 42.9M DOFs at 20221 MiB): above the
+    # measured peak, so that a job the check lets through fits, and by less than 30%.
+    cantilever = os.path.join(os.environ["HEXCUT_SOURCE_DIR"], "input/examples/cantilever.yaml")
+    for refine, measured in [("4.5", 734.0 / 1024), ("14", 20221.3 / 1024)]:
+        rc, out, err = run(["--check", cantilever, "-hexcut_refine", refine,
+                            "-hexcut_memory_available", f"{measured / 2:.2f}"])
+        m = re.search(r"solver gmg, 1 rank\(s\)\) needs about ([0-9.]+) GiB per rank", err)
+        check(rc == 2 and m and 1.0 <= float(m.group(1)) / measured < 1.3,
+              f"gmg's estimate for the cantilever refined {refine} ({m.group(1) if m else '?'} GiB) is 1-1.3x "
+              f"the measured {measured:.2f} GiB: {'' if m else err.strip()[-300:]}")
     for args, message in [(["-ksp_type", "nosuchtype"], "invalid PETSc option: Unable to find requested KSP type nosuchtype"),
                           (["-ksp_type", "cg", "-ksp_rtol", "abc"], "invalid PETSc option: Input string abc has no numeric value"),
                           (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB")]:
