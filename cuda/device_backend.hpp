@@ -11,7 +11,7 @@
 
 namespace hexcut::cuda {
 
-/// y += A x for the stored cells A (in the precision they are stored in) on device 0; x, y:
+/// y += A x for the stored cells A (in the precision they are held in now) on device 0; x, y:
 /// 3 values per local copy of A's layout (host arrays, copied in and out once per call).
 /// `colours`: backend::colour_cells of A's cells' level positions. Throws
 /// std::runtime_error with the CUDA runtime's message when a call fails.
@@ -19,10 +19,10 @@ inline void stored_apply_add(const multigrid::StoredCells& A, const backend::Cel
                              const double* x, double* y) {
   const CellArrays cells{std::int64_t(A.num_cells()), A.corners(),         colours.num_colours(),
                          colours.offset.data(),       colours.cell.data(), A.layout().num_local()};
-  if (A.precision() == multigrid::Precision::single)
-    packed_apply_add(A.packed_single(), cells, x, y);
-  else
+  if (A.packed_double())
     packed_apply_add(A.packed_double(), cells, x, y);
+  else
+    packed_apply_add(A.packed_single(), cells, x, y);
 }
 
 }  // namespace hexcut::cuda

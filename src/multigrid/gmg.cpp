@@ -346,6 +346,10 @@ const StoredCells& Multigrid::stored_cells(int l) const {
   return *data_[l]->stored;
 }
 
+bool Multigrid::has_stored_cells(int l) const {
+  return l >= 1 && data_[l]->stored != nullptr;
+}
+
 CompositeBlocks Multigrid::composite_blocks() const {
   CompositeBlocks b;
   const int first = opt_.first_level;
@@ -488,6 +492,9 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
       rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
                                        l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
     }
+    // -gmg_precision single: level l-1's blocks were kept in double for this product;
+    // from now on they are applied from their float rounding (StoredCells::galerkin).
+    if (l >= 2 && fd.stored) fd.stored->round_to_single();
     if (l == first && first > 0 && !rotated) {
       // The rotation each composite block now has (its fine cells share it).
       composite_rotation_.resize(9 * composite_fine_cell_.size());
@@ -516,6 +523,10 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     if (l == L - 1 && changed) PetscCall(build_coarsest());
   }
   if (L == 1) PetscCall(build_coarsest());
+  // Levels the loop left in double (the last before a smoothed chain); the coarsest keeps
+  // double: it is only factored, and small.
+  for (int l = 1; l + 1 < L; ++l)
+    if (data_[l]->stored) data_[l]->stored->round_to_single();
   // The blocks above the fine cells rebuilt now are complete again.
   if (!chain_missing_.empty())
     for (std::size_t e = 0; e < d0.dirty.size(); ++e)
@@ -1179,7 +1190,7 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     // blocks were built from; coarse: a packed 24x24 block per cell), the inverted 3x3
     // diagonal blocks, the interpolation to this level from the next (the scalar AIJ under
     // the MAIJ: value + column index per weight) and the work vectors (6 global, 4 on the
-    // first level, whose b and x are the caller's; 2 local; ghosts ignored).
+    // first level, whose b and x are the caller's; 2 local for Gauss-Seidel; ghosts ignored).
     const double cells = double(lev.graph.num_cells()), copies = double(lev.copies().num_copies);
     // Assembled levels (smoothed interpolation) and smoothed transfers: their AIJ nonzeros.
     const auto aij_bytes = [](Mat M) {
@@ -1188,8 +1199,7 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       return 12.0 * info.nz_used;
     };
     const auto& d = *data_[l];
-    const double block_bytes =
-        l > 0 && d.stored && d.stored->precision() == Precision::single ? 4.0 : 8.0;
+    const double block_bytes = l > 0 && d.stored && !d.stored->packed_double() ? 4.0 : 8.0;
     const double rotations = fine_cells_ && !fine_cells_->rotation.empty() ? 2.0 * 9.0 * 8.0 : 0.0;
     const double op = d.A      ? aij_bytes(d.A)
                       : l == 0 ? cells * (3.0 * 8.0 + 4.0 + 1.0 + rotations) + 3.0 * copies * 8.0
@@ -1200,7 +1210,10 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       if (!d.P_trilinear) PetscCall(MatMAIJGetAIJ(d.P, &scalar));
       transfer = aij_bytes(scalar);
     }
-    const double vectors = (l == opt_.first_level ? 4.0 : 6.0) + 2.0;
+    // Gauss-Seidel's two local vectors come from the DM's cache (level 0: shared with the
+    // fine operator's application).
+    const double vectors =
+        (l == opt_.first_level ? 4.0 : 6.0) + (opt_.smoother == Smoother::chebyshev ? 0.0 : 2.0);
     // Energy-minimized rows (8 3x3 blocks + 8 coarse indices each, on the copies' owners and
     // ghosts) and the Schwarz patches' packed Cholesky factors with their DOF lists.
     std::int64_t extra[3] = {0, 0, 0};  // bytes, rows, patches

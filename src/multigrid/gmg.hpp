@@ -195,8 +195,10 @@ class Multigrid {
 
   int num_levels() const { return int(levels_.size()); }
   const hierarchy::Level& level(int l) const { return levels_[l]; }
-  /// The stored Galerkin blocks of level l >= 1 (after update()).
+  /// The stored Galerkin blocks of level l >= 1 (after update()); has_stored_cells(l):
+  /// whether level l has them (not where it is assembled: -gmg_interpolation smoothed).
   const StoredCells& stored_cells(int l) const;
+  bool has_stored_cells(int l) const;
   /// Level l's operator applied to a level-l global vector (for tests).
   PetscErrorCode apply_level(int l, Vec x, Vec y);
   /// Interpolation from level l+1 to l (global, 3 DOFs per copy). The V-cycle uses

@@ -1,6 +1,9 @@
 #include "multigrid/stored_cells.hpp"
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <new>
 
 #include "backend/loop.hpp"
 #include "backend/restriction.hpp"
@@ -9,10 +12,26 @@
 
 namespace hexcut::multigrid {
 
+namespace {
+
+/// Zeroed heap storage for `count` numbers of `bytes` each (never null, even for 0).
+void* allocate_zeroed(std::size_t count, std::size_t bytes) {
+  void* p = std::calloc(std::max<std::size_t>(count, 1), bytes);
+  if (!p) throw std::bad_alloc();
+  return p;
+}
+
+}  // namespace
+
 StoredCells::StoredCells(const topology::DofLayout& layout, Precision precision)
-    : CellOperator(layout), precision_(precision) {
-  (precision == Precision::single ? single_.assign(kPackedSize * layout.cells.size(), 0.0f)
-                                  : packed_.assign(kPackedSize * layout.cells.size(), 0.0));
+    : CellOperator(layout), precision_(precision), count_(kPackedSize * layout.cells.size()) {
+  // Single precision allocates at the first galerkin() (in double, rounded later): no
+  // float buffer to free and reallocate at the set-up's peak.
+  if (precision == Precision::double_) blocks_ = allocate_zeroed(count_, sizeof(double));
+}
+
+StoredCells::~StoredCells() {
+  std::free(blocks_);
 }
 
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
@@ -24,15 +43,28 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
   const std::size_t n = num_cells();
   dirty_.assign(n, 0);
   std::int64_t rebuilt = 0;
+  for (std::size_t C = 0; C < n; ++C) {
+    for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k)
+      if (fine_dirty[children.child[k]]) dirty_[C] = 1;
+    rebuilt += dirty_[C];
+  }
+  // Single precision: a rebuild of every block is kept in double until round_to_single(),
+  // so that the next level's Galerkin product (and the coarsest factorization) sees the
+  // double blocks, not their rounding; a partial rebuild writes float directly (its clean
+  // blocks exist only as floats by then).
+  if (!blocks_ ||
+      (precision_ == Precision::single && std::size_t(rebuilt) == n && !holds_double_)) {
+    std::free(blocks_);  // every block is rebuilt from the finer level: none is read here
+    blocks_ = nullptr;
+    blocks_ = allocate_zeroed(count_, sizeof(double));
+    holds_double_ = true;
+  }
   double child[576], parent[576], W[576];
   const bool general = rows && !rows->empty();
   const auto& fine_corners = fine.layout().cell_corners;
   const auto& parent_corners = layout().cell_corners;
   for (std::size_t C = 0; C < n; ++C) {
-    for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k)
-      if (fine_dirty[children.child[k]]) dirty_[C] = 1;
     if (!dirty_[C]) continue;
-    ++rebuilt;
     std::fill(parent, parent + 576, 0.0);
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k) {
       const auto e = std::size_t(children.child[k]);
@@ -52,12 +84,28 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
         if (mask_[3 * std::size_t(corners[i / 3]) + i % 3] == 0.0)
           for (int j = 0; j < 24; ++j) parent[24 * i + j] = parent[24 * j + i] = 0.0;
     }
-    if (precision_ == Precision::single)
-      pack_symmetric(parent, &single_[kPackedSize * C]);
+    if (holds_double_)
+      pack_symmetric(parent, doubles() + kPackedSize * C);
     else
-      pack_symmetric(parent, &packed_[kPackedSize * C]);
+      pack_symmetric(parent, floats() + kPackedSize * C);
   }
   return rebuilt;
+}
+
+void StoredCells::round_to_single() {
+  if (precision_ != Precision::single || !holds_double_) return;
+  // Float i goes to bytes [4i, 4i + 4), inside double i/2, which was read at step i/2 <= i;
+  // double i (bytes [8i, 8i + 8)) is still intact when it is read. memcpy: no aliasing.
+  auto* bytes = static_cast<unsigned char*>(blocks_);
+  for (std::size_t i = 0; i < count_; ++i) {
+    double v;
+    std::memcpy(&v, bytes + sizeof(double) * i, sizeof v);
+    const float f = float(v);
+    std::memcpy(bytes + sizeof(float) * i, &f, sizeof f);
+  }
+  if (void* shrunk = std::realloc(blocks_, std::max<std::size_t>(count_, 1) * sizeof(float)))
+    blocks_ = shrunk;  // else the larger buffer stays, holding the floats at its front
+  holds_double_ = false;
 }
 
 void StoredCells::rotate(const std::vector<double>& dR) {
@@ -68,50 +116,49 @@ void StoredCells::rotate(const std::vector<double>& dR) {
 
 void StoredCells::rotate_block(std::size_t e, const double* R) {
   double A[576];
-  unpack_symmetric(&packed_[kPackedSize * e], A);
+  unpack_symmetric(doubles() + kPackedSize * e, A);
   element::rotate_element_matrix(R, A, A);
-  pack_symmetric(A, &packed_[kPackedSize * e]);
+  pack_symmetric(A, doubles() + kPackedSize * e);
 }
 
 void StoredCells::set_block(std::size_t e, const double* packed) {
-  std::copy_n(packed, kPackedSize, &packed_[kPackedSize * e]);
+  std::copy_n(packed, kPackedSize, doubles() + kPackedSize * e);
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {
   const auto n = std::int64_t(num_cells());
-  if (precision_ == Precision::single)
-    backend::for_each(
-        n, backend::CellApplyAdd<StoredCellOpsSingle>{{single_.data()}, corners(), x, y});
+  if (const double* d = packed_double())
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d}, corners(), x, y});
   else
-    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{packed_.data()}, corners(), x, y});
+    backend::for_each(
+        n, backend::CellApplyAdd<StoredCellOpsSingle>{{packed_single()}, corners(), x, y});
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
                                    double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();
   const auto n = std::int64_t(num_cells());
-  if (precision_ == Precision::single)
-    backend::for_each(
-        n, backend::CellColourRows<StoredCellOpsSingle>{{single_.data()}, corners(), p, k, x, y});
+  if (const double* d = packed_double())
+    backend::for_each(n, backend::CellColourRows<StoredCellOps>{{d}, corners(), p, k, x, y});
   else
     backend::for_each(
-        n, backend::CellColourRows<StoredCellOps>{{packed_.data()}, corners(), p, k, x, y});
+        n, backend::CellColourRows<StoredCellOpsSingle>{{packed_single()}, corners(), p, k, x, y});
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
   const auto n = std::int64_t(num_cells());
-  if (precision_ == Precision::single)
-    backend::for_each(
-        n, backend::CellDiagonal<StoredCellOpsSingle>{{single_.data()}, corners(), diag});
+  if (const double* d = packed_double())
+    backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{d}, corners(), diag});
   else
-    backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{packed_.data()}, corners(), diag});
+    backend::for_each(
+        n, backend::CellDiagonal<StoredCellOpsSingle>{{packed_single()}, corners(), diag});
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {
-  if (precision_ == Precision::single)
-    unpack_symmetric(&single_[kPackedSize * e], A);
+  if (const double* d = packed_double())
+    unpack_symmetric(d + kPackedSize * e, A);
   else
-    unpack_symmetric(&packed_[kPackedSize * e], A);
+    unpack_symmetric(packed_single() + kPackedSize * e, A);
 }
 
 }  // namespace hexcut::multigrid

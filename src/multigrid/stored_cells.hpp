@@ -23,18 +23,20 @@ struct Children {
 
 /// How the blocks are stored: double, or float (-gmg_precision single; the products are
 /// still formed in double, only the stored numbers are rounded: half the memory and the
-/// memory traffic of the level's operator).
+/// memory traffic of the level's operator). In single precision a full rebuild is held in
+/// double until round_to_single(), so that the next level's Galerkin product is formed
+/// from the double blocks: rounding each level's input compounds (doc/theory.md, "Mixed
+/// precision").
 enum class Precision { double_, single };
 
 class StoredCells final : public assembly::CellOperator {
  public:
-  /// Zero blocks for the layout's local cells.
+  /// Zero blocks for the layout's local cells (single precision: none until galerkin()).
   explicit StoredCells(const topology::DofLayout& layout, Precision precision = Precision::double_);
   Precision precision() const { return precision_; }
+  ~StoredCells() override;
   /// Bytes of the stored blocks.
-  std::size_t bytes() const {
-    return packed_.size() * sizeof(double) + single_.size() * sizeof(float);
-  }
+  std::size_t bytes() const { return count_ * (holds_double_ ? sizeof(double) : sizeof(float)); }
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
@@ -46,17 +48,27 @@ class StoredCells final : public assembly::CellOperator {
                         const assembly::CellPositions& fine_position, const Children& children,
                         const std::vector<char>& fine_dirty,
                         const InterpolationRows* rows = nullptr);
+  /// Single precision: the blocks a full galerkin() left in double are rounded to float
+  /// and the double copy freed (call it once the next level is built); a no-op otherwise.
+  /// Every action uses the double blocks while they are held; the rounding is done in
+  /// place (each float over the front of the doubles already read) and the buffer shrunk.
+  void round_to_single();
   /// Per local cell: rebuilt by the last galerkin() (or rotated by rotate()).
   const std::vector<char>& dirty() const { return dirty_; }
   /// Marks every cell in dirty() (their blocks are new to the level below).
   void mark_all_dirty() { dirty_.assign(num_cells(), 1); }
-  /// All packed blocks, kPackedSize per local cell: double (null in single precision) and
-  /// float (null in double), for a device backend's copy.
-  const double* packed_double() const { return packed_.empty() ? nullptr : packed_.data(); }
-  const float* packed_single() const { return single_.empty() ? nullptr : single_.data(); }
+  /// All packed blocks, kPackedSize per local cell: double (null once rounded to single)
+  /// and float (null in double; stale while the double blocks are held), for a device
+  /// backend's copy: use the double blocks when they are not null.
+  const double* packed_double() const {
+    return holds_double_ ? static_cast<const double*>(blocks_) : nullptr;
+  }
+  const float* packed_single() const {
+    return holds_double_ ? nullptr : static_cast<const float*>(blocks_);
+  }
   /// Cell e's packed block (kPackedSize numbers), and replacing it. Double precision only
   /// (the composite level), like rotate() and rotate_block().
-  const double* block(std::size_t e) const { return &packed_[kPackedSize * e]; }
+  const double* block(std::size_t e) const { return packed_double() + kPackedSize * e; }
   void set_block(std::size_t e, const double* packed);
   /// A_e <- R^ A_e R^T for every local cell e, R = dR[9 e..] (row-major 3x3 per cell); marks
   /// all cells in dirty().
@@ -76,8 +88,15 @@ class StoredCells final : public assembly::CellOperator {
 
  private:
   Precision precision_;
-  std::vector<double> packed_;  // 300 per local cell (double), or empty
-  std::vector<float> single_;   // 300 per local cell (single), or empty
+  double* doubles() { return holds_double_ ? static_cast<double*>(blocks_) : nullptr; }
+  float* floats() { return holds_double_ ? nullptr : static_cast<float*>(blocks_); }
+
+  // The packed blocks, kPackedSize per local cell (count_ numbers), as doubles or floats:
+  // one malloc'd buffer, so that round_to_single() rounds in place and shrinks it
+  // (realloc) instead of holding both copies at the set-up's peak.
+  void* blocks_ = nullptr;
+  std::size_t count_ = 0;
+  bool holds_double_ = true;
   std::vector<char> dirty_;
   std::vector<double> mask_;
 };
