@@ -38,8 +38,10 @@ def main():
             f.write(DECK.format(h=a.h, steps=a.steps, out=work, mesh=os.path.join(ROOT, "input/meshes/bunny.obj")))
         print(f"{'options':>24} {'ranks':>5} {'cells':>8} {'DOFs':>9} {'steps':>6} {'s/step':>8} {'steps/s':>8} "
               f"{'assembly s/step':>16} {'solve s/step':>13}")
-        for r, opts in [(r, o) for r in a.ranks for o in a.options]:
-            cmd = (["mpiexec", "-n", str(r)] if r > 1 else []) + [HEXCUT, deck, "-log_view"] + opts.split()
+        for k, (r, opts) in enumerate([(r, o) for r in a.ranks for o in a.options]):
+            # A folder per run: hexcut never overwrites an earlier result.
+            out = ["-hexcut_output_directory", os.path.join(work, f"run{k}")]
+            cmd = (["mpiexec", "-n", str(r)] if r > 1 else []) + [HEXCUT, deck, "-log_view"] + out + opts.split()
             p = subprocess.run(cmd, env=ENV, capture_output=True, text=True, check=True)
             cells = int(re.search(r"(\d+) cells", p.stdout).group(1))
             dofs = int(re.search(r"(\d+) DOFs", p.stdout).group(1))
