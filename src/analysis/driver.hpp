@@ -28,7 +28,8 @@ namespace hexcut::analysis {
 struct DriverHooks {
   /// After every linear solve (static: each fixed-point iteration; dynamic: each step).
   std::function<void(const State&, const solve::SolveRecord&)> on_solve;
-  /// After each completed step, once its output is written.
+  /// After each completed step, once its output is written. After the last step of a run
+  /// with an output the Simulation is already released (Driver::write).
   std::function<void(const State&)> on_step;
   /// After cut events were applied at time t (report.events > 0), the topology followed.
   std::function<void(const CutReport&, double t)> on_cuts;

@@ -1148,7 +1148,9 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       opt_.smoother == Smoother::gauss_seidel ? "8-colour block GS" : "Chebyshev/block Jacobi",
       opt_.presmooth, opt_.postsmooth,
       opt_.smoother == Smoother::gauss_seidel && opt_.omega != 1.0 ? " (omega != 1)" : "",
-      opt_.precision == Precision::single ? ", coarse blocks in single precision" : ""));
+      opt_.precision == Precision::single
+          ? ", coarse blocks in single precision (the coarsest in double)"
+          : ""));
   if (opt_.first_level > 0)
     PetscCall(PetscViewerASCIIPrintf(
         viewer,

@@ -1,6 +1,7 @@
 #include "multigrid/stored_cells.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -126,6 +127,7 @@ void StoredCells::set_block(std::size_t e, const double* packed) {
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {
+  assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
     backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d}, corners(), x, y});
@@ -136,6 +138,7 @@ void StoredCells::apply_add(const double* x, double* y) const {
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
                                    double* y) const {
+  assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const int* p = position.empty() ? nullptr : position[0].data();
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
@@ -146,6 +149,7 @@ void StoredCells::apply_add_colour(const assembly::CellPositions& position, int 
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
+  assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
     backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{d}, corners(), diag});
@@ -155,6 +159,7 @@ void StoredCells::add_diagonal_blocks(double* diag) const {
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {
+  assert(blocks_ && "a single-precision level is used before its first galerkin()");
   if (const double* d = packed_double())
     unpack_symmetric(d + kPackedSize * e, A);
   else

@@ -6,6 +6,7 @@
 // will be too.
 #pragma once
 
+#include <cassert>
 #include <cstdint>
 #include <vector>
 
@@ -36,7 +37,9 @@ class StoredCells final : public assembly::CellOperator {
   Precision precision() const { return precision_; }
   ~StoredCells() override;
   /// Bytes of the stored blocks.
-  std::size_t bytes() const { return count_ * (holds_double_ ? sizeof(double) : sizeof(float)); }
+  std::size_t bytes() const {
+    return blocks_ ? count_ * (holds_double_ ? sizeof(double) : sizeof(float)) : 0;
+  }
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
@@ -68,7 +71,10 @@ class StoredCells final : public assembly::CellOperator {
   }
   /// Cell e's packed block (kPackedSize numbers), and replacing it. Double precision only
   /// (the composite level), like rotate() and rotate_block().
-  const double* block(std::size_t e) const { return packed_double() + kPackedSize * e; }
+  const double* block(std::size_t e) const {
+    assert(packed_double());
+    return packed_double() + kPackedSize * e;
+  }
   void set_block(std::size_t e, const double* packed);
   /// A_e <- R^ A_e R^T for every local cell e, R = dR[9 e..] (row-major 3x3 per cell); marks
   /// all cells in dirty().
@@ -88,8 +94,15 @@ class StoredCells final : public assembly::CellOperator {
 
  private:
   Precision precision_;
-  double* doubles() { return holds_double_ ? static_cast<double*>(blocks_) : nullptr; }
-  float* floats() { return holds_double_ ? nullptr : static_cast<float*>(blocks_); }
+  /// The double blocks (set_block, rotate_block: the composite level, always double).
+  double* doubles() {
+    assert(holds_double_ && blocks_);
+    return static_cast<double*>(blocks_);
+  }
+  float* floats() {
+    assert(!holds_double_ && blocks_);
+    return static_cast<float*>(blocks_);
+  }
 
   // The packed blocks, kPackedSize per local cell (count_ numbers), as doubles or floats:
   // one malloc'd buffer, so that round_to_single() rounds in place and shrinks it
