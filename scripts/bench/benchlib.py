@@ -21,6 +21,30 @@ output: {{directory: {out}, name: {name}, fields: [displacement]}}
 """
 
 
+def example_deck(example, edits=()):
+    """Text of input/examples/<example> with its mesh paths made absolute (the deck can then be
+    written anywhere) and each (old, new) of `edits` replaced; an `old` that is not in the deck
+    is an error, so an edited example never runs unedited under a variant's name."""
+    text = open(os.path.join(ROOT, "input", "examples", example)).read()
+    text = text.replace("../meshes/", os.path.join(ROOT, "input", "meshes") + "/")
+    for a, b in edits:
+        assert a in text, (example, a)
+        text = text.replace(a, b)
+    return text
+
+
+def log_events(text):
+    """{event: seconds} of PETSc's -log_view table in `text` (the maximum over ranks)."""
+    import re
+
+    events = {}
+    for line in text.splitlines():
+        m = re.match(r"^(\w+)\s+\d+\s+[\d.]+\s+([\d.e+-]+)\s", line)
+        if m:
+            events[m.group(1)] = float(m.group(2))
+    return events
+
+
 def cantilever(n, solver, out, name="bench"):
     """Deck text of the cantilever with n cells across."""
     return CANTILEVER.format(h=0.125 / n, nx=8 * n, n=n, solver=solver, out=out, name=name)

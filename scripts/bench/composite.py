@@ -25,9 +25,7 @@ import tempfile
 import h5py
 import numpy as np
 
-from benchlib import ENV, HEXCUT, ROOT
-
-EX = os.path.join(ROOT, "input", "examples")
+from benchlib import ENV, HEXCUT, example_deck, log_events
 
 
 def run(deck_text, work, name, extra=()):
@@ -39,20 +37,11 @@ def run(deck_text, work, name, extra=()):
                        capture_output=True, text=True, cwd=work)
     if p.returncode != 0:
         raise RuntimeError(f"{name}: exit {p.returncode}: {p.stderr.strip()[-400:]}")
-    events = {}
-    for line in p.stdout.splitlines():
-        m = re.match(r"^(\w+)\s+\d+\s+[\d.]+\s+([\d.e+-]+)\s", line)
-        if m:
-            events[m.group(1)] = float(m.group(2))
-    return p.stdout, events, os.path.join(work, "results", name + ".h5")
+    return p.stdout, log_events(p.stdout), os.path.join(work, "results", name + ".h5")
 
 
 def deck_of(example, name, level, edits=(), every=1, fields="[displacement, von_mises]"):
-    text = open(os.path.join(EX, example)).read()
-    text = text.replace("../meshes/", os.path.join(ROOT, "input", "meshes") + "/")
-    for a, b in edits:
-        assert a in text, (example, a)
-        text = text.replace(a, b)
+    text = example_deck(example, edits)
     text = re.sub(r"\noutput:\n(  .*\n)*", "\n", text)
     text += f"output: {{directory: results, name: {name}, every: {every}, fields: {fields}}}\n"
     if level > 0:
