@@ -1,5 +1,6 @@
 """Shared set-up of the benchmark scripts: where hexcut is and how to run it."""
 import os
+import re
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 HEXCUT = os.path.join(os.environ.get("HEXCUT_BUILD_DIR", os.path.join(ROOT, "build")), "src", "app", "hexcut")
@@ -35,8 +36,6 @@ def example_deck(example, edits=()):
 
 def log_events(text):
     """{event: seconds} of PETSc's -log_view table in `text` (the maximum over ranks)."""
-    import re
-
     events = {}
     for line in text.splitlines():
         m = re.match(r"^(\w+)\s+\d+\s+[\d.]+\s+([\d.e+-]+)\s", line)

@@ -1,8 +1,9 @@
 """Where the bunny's iterations go (issue 10; doc/benchmarks.md, "The bunny's stiff core and
 nu = 0.45"). Runs input/examples/bunny.yaml (static, stiff core 1000x, tissue nu = 0.45) and
 three variants of it - homogeneous nu = 0.3 (the core given the tissue's E), nu = 0.45 alone,
-the jump alone (nu = 0.3 everywhere) - with the default multigrid and any option sets given, one run each, side by side,
-and prints CG iterations to rtol 1e-8, set-up (hexcutAssembly) and solve (KSPSolve) seconds.
+the jump alone (nu = 0.3 everywhere) - with the default multigrid and any option sets given,
+one run each, side by side, and prints CG iterations to rtol 1e-8, set-up (hexcutAssembly) and
+solve (KSPSolve) seconds.
   /usr/bin/python3 scripts/bench/bunny_jumps.py [--refine 2] [--variants full jump ...] \\
       [--options "" "-gmg_levels 2" "-gmg_cycle w" ...]"""
 import argparse

@@ -1,7 +1,7 @@
 #include "multigrid/interpolation_region.hpp"
 
 #include <algorithm>
-#include <climits>
+#include <cstdint>
 
 #include "element/trilinear.hpp"
 

@@ -1,7 +1,7 @@
-// The fine copies whose interpolation rows are computed rather than trilinear, shared by the
-// energy-minimizing (energy_interpolation.hpp) and the operator-dependent
-// (operator_interpolation.hpp) interpolations: which copies they are, their exchange between
-// ranks and the pattern of coarse copies each row may use. Internal to multigrid/.
+// The fine copies whose interpolation rows are computed rather than trilinear (today by the
+// energy-minimizing interpolation, energy_interpolation.hpp): which copies they are, their
+// exchange between ranks and the pattern of coarse copies each row may use, apart from how a
+// row is computed. Internal to multigrid/.
 #pragma once
 
 #include <petscvec.h>
