@@ -274,6 +274,13 @@ __global__ void check_galerkin_accumulate_general(const double* A, const double*
                                   parent + el::kElementMatrixSize * e);
 }
 
+/// One child per thread: its rotated Galerkin block into its own output block.
+__global__ void check_rotated_block_add(const double* G, const double* R, double* A) {
+  const int e = thread_index();
+  mg::rotated_block_add(G + el::kElementMatrixSize * e, R + 9 * e, 1.0,
+                        A + el::kElementMatrixSize * e);
+}
+
 __global__ void check_packed_index(int* index) {
   const int t = thread_index();
   index[t] = mg::packed_index(t / 24, t % 24);

@@ -1,5 +1,8 @@
 #include "analysis/simulation.hpp"
 
+// PetscObjectStateGet (a documented function that PETSc 3.18 declares only here).
+#include <petsc/private/petscimpl.h>
+
 #include <cmath>
 #include <cstdio>
 
@@ -304,8 +307,34 @@ PetscErrorCode Simulation::assemble(const assembly::OperatorWeights& w) {
   PetscFunctionReturn(0);
 }
 
+namespace {
+
+/// Whether `kept` was computed at `u` as it is now.
+PetscErrorCode kept_at(const std::vector<double>& R, PetscObjectId id, PetscObjectState state,
+                       Vec u, bool* same) {
+  PetscFunctionBeginUser;
+  PetscObjectId uid;
+  PetscObjectState ustate;
+  PetscCall(PetscObjectGetId((PetscObject)u, &uid));
+  PetscCall(PetscObjectStateGet((PetscObject)u, &ustate));
+  *same = !R.empty() && uid == id && ustate == state;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
 PetscErrorCode Simulation::refresh_rotations(Vec u) {
   PetscFunctionBeginUser;
+  auto& kept = kept_rotations_;
+  bool same = false;
+  PetscCall(kept_at(kept.R, kept.id, kept.state, u, &same));
+  if (same && kept.R.size() == 9 * model_.layout.cells.size()) {
+    // The cells' old rotations become the buffer of the next kept ones.
+    model_.cells.identity_rotations = false;
+    model_.cells.rotation.swap(kept.R);
+    kept.R.clear();
+    PetscFunctionReturn(0);
+  }
   assembly::LocalValues ul;
   PetscCall(ul.get(model_.dm, u));
   assembly::update_rotations(model_.layout, ul.data(), model_.cells);
@@ -809,7 +838,16 @@ PetscErrorCode Simulation::strain_energy(Vec u, double* energy) {
   {
     assembly::LocalValues ul;
     PetscCall(ul.get(model_.dm, u));
-    w = assembly::strain_energy_local(model_.layout, model_.cells, ul.data(), corotational());
+    const double* R = nullptr;
+    if (corotational()) {
+      auto& kept = kept_rotations_;
+      kept.R.resize(9 * model_.layout.cells.size());
+      assembly::cell_rotations(model_.layout, model_.cells, ul.data(), kept.R.data());
+      PetscCall(PetscObjectGetId((PetscObject)u, &kept.id));
+      PetscCall(PetscObjectStateGet((PetscObject)u, &kept.state));
+      R = kept.R.data();
+    }
+    w = assembly::strain_energy_local(model_.layout, model_.cells, ul.data(), R);
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, comm_));
   *energy = w;

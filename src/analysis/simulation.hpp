@@ -150,6 +150,16 @@ class Simulation {
   // is the one this simulation left at step cached_step_ (-1: none).
   std::int64_t cached_step_ = -1;
   double cached_kinetic_ = 0, cached_strain_ = 0;
+  // The rotations (9 per local cell) that strain_energy() computed at the vector with PETSc
+  // id `id` in object state `state`, kept for the next refresh_rotations() of the same,
+  // unchanged vector: a step's energy balance and the next step's operator both rotate by
+  // those at the end-of-step displacement, so each cell's polar decomposition is done once
+  // per step, not twice (doc/theory.md, "Corotation"). Empty R: none kept.
+  struct KeptRotations {
+    std::vector<double> R;
+    PetscObjectId id = 0;
+    PetscObjectState state = 0;
+  } kept_rotations_;
 };
 
 }  // namespace hexcut::analysis

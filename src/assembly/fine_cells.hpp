@@ -40,10 +40,11 @@ class FineCells final : public CellOperator {
   void add_diagonal_blocks(double* diag) const override;
   void cell_matrix(std::size_t e, double* A) const override;
 
- private:
   /// The kernels' data: pointers into this operator's and the CellData's buffers, with the
-  /// current rotations (or none) and weights.
+  /// current rotations (or none) and weights (valid while both are unchanged).
   FineCellData data() const;
+
+ private:
 
   const CellData* cells_;
   OperatorWeights w_;

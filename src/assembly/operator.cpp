@@ -94,18 +94,13 @@ void update_rotations(const topology::DofLayout& D, const double* u_local, CellD
 }
 
 double strain_energy_local(const topology::DofLayout& D, const CellData& C, const double* u,
-                           bool corotational) {
+                           const double* rotations) {
   double buffer[element::kElementMatrixSize], x24[24], u24[24], d[24], Kd[24];
   element::corner_positions(C.h, nullptr, x24);
-  std::vector<double> rotations;
-  if (corotational) {
-    rotations.resize(9 * D.cells.size());
-    cell_rotations(D, C, u, rotations.data());
-  }
   double w = 0.0;
   for (std::size_t e = 0; e < D.cells.size(); ++e) {
     element::gather_cell(u, D.cell_corners[e].data(), u24);
-    const double* R = corotational ? &rotations[9 * e] : kIdentity;
+    const double* R = rotations ? &rotations[9 * e] : kIdentity;
     element::corotated_displacement(R, x24, u24, d);
     element::element_matvec(cell_stiffness(C, e, buffer), d, Kd);
     for (int i = 0; i < 24; ++i) w += 0.5 * d[i] * Kd[i];

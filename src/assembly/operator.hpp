@@ -66,12 +66,12 @@ void cell_rotations(const topology::DofLayout& layout, const CellData& cells, co
 void update_rotations(const topology::DofLayout& layout, const double* u_local, CellData& cells);
 
 /// Strain energy of the rank's cells, sum_e 1/2 d_e^T K_e d_e with the corotated
-/// displacement d_e = R^T (x + u) - x (doc/theory.md "Corotation"); R is computed here
-/// from u_local (cell_rotations) when `corotational`,
-/// else the identity, and CellData's stored rotations are not touched. [J] (local part;
-/// sum over ranks). Cells shared by no rank twice: each local cell once.
+/// displacement d_e = R^T (x + u) - x (doc/theory.md "Corotation"); `rotations`: 9 per
+/// local cell, cell_rotations() at u_local (corotational runs), or null for the identity
+/// (linear runs). CellData's stored rotations are not read. [J] (local part; sum over
+/// ranks). Cells shared by no rank twice: each local cell once.
 double strain_energy_local(const topology::DofLayout& layout, const CellData& cells,
-                           const double* u_local, bool corotational);
+                           const double* u_local, const double* rotations);
 
 /// An AIJ matrix with block size 3, preallocated exactly for the copy adjacency.
 PetscErrorCode create_matrix(MPI_Comm comm, const topology::VertexCopies& copies,

@@ -432,6 +432,7 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   // which forms the stiffness of cells without a kind once; rotation-only updates keep it.
   if (!fine_op_ || fine_cells_ != &cells || full) {
     fine_op_ = std::make_unique<assembly::FineCells>(D0, cells, w, true);
+    fine_tables_ = fine_galerkin_tables(cells);
     fine_cells_ = &cells;
     d0.op = fine_op_.get();
   } else {
@@ -489,8 +490,11 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
       // Levels below the composite one are not needed; the composite blocks were rotated.
       rebuilt_[l] = l == first ? std::int64_t(d.stored->dirty().size()) : 0;
     } else {
+      // Level 1 from the fine cells: their products from fine_tables_, rotated.
+      const FineChildGalerkin fine_products(fine_tables_, fine_op_->data());
       rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children,
-                                       l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1]);
+                                       l == 1 ? d0.dirty : fd.stored->dirty(), &rows_[l - 1],
+                                       l == 1 ? &fine_products : nullptr);
     }
     // -gmg_precision single: level l-1's blocks were kept in double for this product;
     // from now on they are applied from their float rounding (StoredCells::galerkin).

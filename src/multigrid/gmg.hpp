@@ -26,6 +26,7 @@
 #include "hierarchy/hierarchy.hpp"
 #include "lattice/lattice.hpp"
 #include "multigrid/energy_interpolation.hpp"
+#include "multigrid/fine_galerkin.hpp"
 #include "multigrid/schwarz.hpp"
 #include "multigrid/stored_cells.hpp"
 
@@ -260,6 +261,7 @@ class Multigrid {
   std::vector<std::unique_ptr<LevelData>> data_;
   const assembly::CellData* fine_cells_ = nullptr;
   std::unique_ptr<assembly::FineCells> fine_op_;  // level 0's operator
+  FineGalerkinTables fine_tables_;                // level 1's products, made with fine_op_
   assembly::OperatorWeights weights_;
   bool built_ = false;
   std::vector<double> built_rotation_;  // level 0: rotation each cell's parent block saw

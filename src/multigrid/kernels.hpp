@@ -102,6 +102,32 @@ HEXCUT_HD inline void galerkin_accumulate_general(const double* A_child, const d
   }
 }
 
+/// A += w R^ G R^T with R^ = diag(R, ..., R) (8 copies of the 3x3 rotation R, row-major):
+/// the Galerkin block of a rotated fine cell from its unrotated one. For trilinear W =
+/// kron(w, I3), W^T R^ = R^ W^T, so W^T (R^ K R^T) W = R^ (W^T K W) R^T: with G = W^T K W
+/// formed once per stiffness and octant, a corotational rebuild rotates G instead of
+/// forming R^ K R^T and the product (doc/theory.md, "Geometric multigrid", "Corotation").
+/// G symmetric (24x24 row-major); both triangles of A are written. 36 block products of
+/// 54 multiply-adds, 18 doubles of scratch.
+HEXCUT_HD inline void rotated_block_add(const double* G, const double* R, double w, double* A) {
+  for (int P = 0; P < 8; ++P)
+    for (int Q = P; Q < 8; ++Q) {
+      double T[9];  // G_PQ R^T
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const double* g = G + 24 * (3 * P + i) + 3 * Q;
+          T[3 * i + j] = g[0] * R[3 * j] + g[1] * R[3 * j + 1] + g[2] * R[3 * j + 2];
+        }
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const double b =
+              w * (R[3 * i] * T[j] + R[3 * i + 1] * T[3 + j] + R[3 * i + 2] * T[6 + j]);
+          A[24 * (3 * P + i) + 3 * Q + j] += b;
+          if (Q != P) A[24 * (3 * Q + j) + 3 * P + i] += b;
+        }
+    }
+}
+
 /// Packed storage of a symmetric 24x24 matrix: the upper triangle row by row, 300
 /// numbers instead of 576 (coarse Galerkin blocks are symmetric).
 constexpr int kPackedSize = 300;

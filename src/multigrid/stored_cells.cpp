@@ -38,7 +38,7 @@ StoredCells::~StoredCells() {
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
                                    const assembly::CellPositions& fine_position,
                                    const Children& children, const std::vector<char>& fine_dirty,
-                                   const InterpolationRows* rows) {
+                                   const InterpolationRows* rows, const ChildGalerkin* fast) {
   // Each block is accumulated in full 24x24 form from its (at most 8) children, then
   // stored packed.
   const std::size_t n = num_cells();
@@ -69,13 +69,14 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
     std::fill(parent, parent + 576, 0.0);
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k) {
       const auto e = std::size_t(children.child[k]);
-      fine.cell_matrix(e, child);
       const auto& p = fine_position[e];
       const int octant = element::parity_octant(p[0], p[1], p[2]);
       if (general && rows->touches(fine_corners[e].data())) {
+        fine.cell_matrix(e, child);
         child_interpolation(*rows, fine_corners[e].data(), parent_corners[C].data(), octant, W);
         galerkin_accumulate_general(child, W, parent);
-      } else {
+      } else if (!fast || !fast->add(e, octant, parent)) {
+        fine.cell_matrix(e, child);
         galerkin_accumulate(child, octant, parent);
       }
     }

@@ -22,6 +22,16 @@ struct Children {
   std::vector<std::int32_t> offset, child;
 };
 
+/// A faster Galerkin product for some children (multigrid/fine_galerkin.hpp): add(e,
+/// octant, A_parent) adds W^T A_e W of the finer level's cell e, W the trilinear weights of
+/// `octant`, to the full 24x24 A_parent and returns true, or returns false to leave the
+/// product to StoredCells::galerkin (which forms A_e).
+class ChildGalerkin {
+ public:
+  virtual ~ChildGalerkin() = default;
+  virtual bool add(std::size_t e, int octant, double* A_parent) const = 0;
+};
+
 /// How the blocks are stored: double, or float (-gmg_precision single; the products are
 /// still formed in double, only the stored numbers are rounded: half the memory and the
 /// memory traffic of the level's operator). In single precision a full rebuild is held in
@@ -45,12 +55,13 @@ class StoredCells final : public assembly::CellOperator {
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
   /// octant. The interpolation is trilinear, except for children with a corner in `rows`
   /// (energy-minimizing rows; may be null), whose 24x24 W_c comes from them
-  /// (child_interpolation). Marks the rebuilt cells in dirty() and returns how many there
-  /// were.
+  /// (child_interpolation). `fast` (may be null) forms the trilinear products of the
+  /// children it can. Marks the rebuilt cells in dirty() and returns how many there were.
   std::int64_t galerkin(const assembly::CellOperator& fine,
                         const assembly::CellPositions& fine_position, const Children& children,
                         const std::vector<char>& fine_dirty,
-                        const InterpolationRows* rows = nullptr);
+                        const InterpolationRows* rows = nullptr,
+                        const ChildGalerkin* fast = nullptr);
   /// Single precision: the blocks a full galerkin() left in double are rounded to float
   /// and the double copy freed (call it once the next level is built); a no-op otherwise.
   /// Every action uses the double blocks while they are held; the rounding is done in

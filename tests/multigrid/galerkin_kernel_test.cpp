@@ -17,7 +17,8 @@ void reference_accumulate(const double* A, int octant, double* P) {
   std::vector<double> W(576, 0.0), WtA(576, 0.0);
   for (int i = 0; i < 8; ++i)
     for (int j = 0; j < 8; ++j)
-      for (int d = 0; d < 3; ++d) W[24 * (3 * i + d) + 3 * j + d] = element::child_weight(octant, i, j);
+      for (int d = 0; d < 3; ++d)
+        W[24 * (3 * i + d) + 3 * j + d] = element::child_weight(octant, i, j);
   for (int r = 0; r < 24; ++r)
     for (int c = 0; c < 24; ++c)
       for (int k = 0; k < 24; ++k) WtA[24 * r + c] += W[24 * k + r] * A[24 * k + c];
@@ -38,8 +39,7 @@ TEST(GalerkinKernel, EqualsWtAWForEveryOctant) {
       const bool symmetric = trial % 4 != 3;
       double A[576], P[576], Pref[576];
       for (int r = 0; r < 24; ++r)
-        for (int c = 0; c < 24; ++c)
-          A[24 * r + c] = symmetric && c < r ? A[24 * c + r] : U(rng);
+        for (int c = 0; c < 24; ++c) A[24 * r + c] = symmetric && c < r ? A[24 * c + r] : U(rng);
       for (int k = 0; k < 576; ++k) P[k] = Pref[k] = U(rng);  // accumulates onto P
       galerkin_accumulate(A, octant, P);
       reference_accumulate(A, octant, Pref);
@@ -47,6 +47,49 @@ TEST(GalerkinKernel, EqualsWtAWForEveryOctant) {
       for (int k = 0; k < 576; ++k) err = std::max(err, std::abs(P[k] - Pref[k]));
       EXPECT_LT(err, 1e-14) << "octant " << octant << (symmetric ? "" : ", general A");
     }
+  }
+}
+
+TEST(GalerkinKernel, RotatedBlockIsTheProductOfTheRotatedCell) {
+  // W^T (R^ K R^T) W = R^ (W^T K W) R^T, R^ = diag(R, ..., R): rotated_block_add on the
+  // unrotated product against the definition on the rotated matrix.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int octant = 0; octant < 8; ++octant) {
+    double K[576], G[576] = {0}, RK[576], P[576], Pref[576], R[9];
+    for (int r = 0; r < 24; ++r)
+      for (int c = 0; c < 24; ++c) K[24 * r + c] = c < r ? K[24 * c + r] : U(rng);
+    // A rotation from a random unit quaternion.
+    double q[4], n = 0.0;
+    for (double& x : q) {
+      x = U(rng);
+      n += x * x;
+    }
+    for (double& x : q) x /= std::sqrt(n);
+    const double a = q[0], b = q[1], c = q[2], d = q[3];
+    const double Rq[9] = {a * a + b * b - c * c - d * d, 2 * (b * c - a * d),
+                          2 * (b * d + a * c),           2 * (b * c + a * d),
+                          a * a - b * b + c * c - d * d, 2 * (c * d - a * b),
+                          2 * (b * d - a * c),           2 * (c * d + a * b),
+                          a * a - b * b - c * c + d * d};
+    std::copy(Rq, Rq + 9, R);
+    for (int P_ = 0; P_ < 8; ++P_)  // RK = R^ K R^T, block by block
+      for (int Q = 0; Q < 8; ++Q)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < 3; ++k)
+              for (int l = 0; l < 3; ++l)
+                s += R[3 * i + k] * K[24 * (3 * P_ + k) + 3 * Q + l] * R[3 * j + l];
+            RK[24 * (3 * P_ + i) + 3 * Q + j] = s;
+          }
+    for (int k = 0; k < 576; ++k) P[k] = Pref[k] = U(rng);  // accumulates onto P
+    reference_accumulate(RK, octant, Pref);
+    galerkin_accumulate(K, octant, G);
+    rotated_block_add(G, R, 1.0, P);
+    double err = 0.0;
+    for (int k = 0; k < 576; ++k) err = std::max(err, std::abs(P[k] - Pref[k]));
+    EXPECT_LT(err, 1e-13) << "octant " << octant;
   }
 }
 

@@ -180,6 +180,15 @@ TEST(Multigrid, GalerkinBlocksEqualPtAP) {
   // material jump: irregular coarse cells, general 24x24 W per child there).
   // Smoothed: levels 1 and 2 are assembled from the fine cells (P^T A P with the smoothed P),
   // which this compares with the test's own assembled fine matrix.
+  // Rotated cells (Operators sets rotations), so level 1's blocks are the rotated products
+  // of multigrid/fine_galerkin.hpp where no DOF is prescribed; with the trilinear transfer
+  // every weighting (stiffness only, lumped and consistent mass).
+  for (const auto& w : kWeights) {
+    Operators ops(kBlock, w, "-gmg_levels 3");
+    EXPECT_LT(galerkin_mismatch(ops.job.sim->multigrid(), ops.A), 1e-12)
+        << "trilinear, w_K " << w.stiffness << ", w_M " << w.mass
+        << (w.lumped_mass ? " lumped" : "");
+  }
   for (const char* interpolation :
        {"trilinear", "energy", "smoothed", "smoothed -gmg_smoothed_levels -1"}) {
     const std::string options = std::string("-gmg_levels 3 -gmg_interpolation ") + interpolation;
@@ -1115,6 +1124,8 @@ TEST(Multigrid, CellsWithoutAKindMatchTheirFormedStiffness) {
   MatMult(A, x, y_ref);
   check_petsc(mg->apply_fine(x, y), "apply_fine");
   EXPECT_LT(rel_diff(y_ref, y), 1e-13) << "multigrid fine operator";
+  // Level 1 from cells without a kind: h (lambda G_lambda + mu G_mu), rotated.
+  EXPECT_LT(galerkin_mismatch(mg, A), 1e-12) << "Galerkin blocks";
   MatDestroy(&A);
   VecDestroy(&x);
   VecDestroy(&y);
