@@ -96,13 +96,15 @@ std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::Ver
   levels[0].copies_ptr = borrowed(copies);
   levels[0].partition_ptr = borrowed(partition);
   levels[0].layout_ptr = borrowed(layout);
-  const int max_levels = 1 + int(std::lround(std::log2(double(std::max(1, partition.superblock)))));
-  const int wanted = opt.levels > 0 ? std::min(opt.levels, max_levels) : max_levels;
-  while (int(levels.size()) < wanted) {
+  levels[0].ranks = partition.num_ranks;
+  while (opt.levels == 0 || int(levels.size()) < opt.levels) {
     const auto& f = levels.back();
     const bool enough = int(levels.size()) >= opt.min_levels;
     if (opt.levels == 0 && enough && 3 * std::int64_t(f.copies().num_copies) <= opt.coarse_dofs)
       break;
+    // A lattice of one cell coarsens to itself: no deeper level exists.
+    const auto& dims = f.graph.spec.dims;
+    if (dims[0] <= 1 && dims[1] <= 1 && dims[2] <= 1) break;
     Level c;
     c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
     if (opt.levels == 0 && enough && c.graph.num_cells() == f.graph.num_cells()) break;
@@ -111,14 +113,24 @@ std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::Ver
         3 * std::int64_t(f.copies().num_copies) <= opt.duplication_dofs &&
         duplication(c.graph) > opt.max_duplication)
       break;
+    // Gathered onto fewer ranks when the level gets small (never a level below min_levels).
+    c.ranks = f.ranks;
+    if (opt.gather_cells > 0 && std::int64_t(levels.size()) >= opt.min_levels &&
+        c.graph.num_cells() < opt.gather_cells * f.ranks)
+      c.ranks = int(std::clamp<std::int64_t>(c.graph.num_cells() / opt.gather_cells, 1, f.ranks));
     auto cc = std::make_shared<topology::VertexCopies>(topology::build_vertex_copies(c.graph));
     auto cp = std::make_shared<topology::Partition>();
     cp->num_ranks = partition.num_ranks;
     cp->superblock = std::max(1, f.partition().superblock / 2);
-    cp->cell_rank.assign(c.graph.num_cells(), 0);
+    // Each coarse cell on the rank of its lowest-numbered child, folded onto c.ranks ranks.
+    cp->cell_rank.assign(c.graph.num_cells(), -1);
     const auto& par = levels.back().parent;
-    for (std::int32_t e = 0; e < f.graph.num_cells(); ++e)
-      cp->cell_rank[par[e]] = f.partition().cell_rank[e];
+    for (std::int32_t e = 0; e < f.graph.num_cells(); ++e) {
+      const int r = int(std::int64_t(f.partition().cell_rank[e]) * c.ranks / f.ranks);
+      auto& owner = cp->cell_rank[par[e]];
+      if (owner < 0) owner = r;
+      c.remote_children |= owner != f.partition().cell_rank[e];
+    }
     cp->copy_rank.resize(cc->num_copies);
     for (std::int32_t v = 0; v < cc->num_copies; ++v)
       cp->copy_rank[v] = cp->cell_rank[cc->first_cell[v]];

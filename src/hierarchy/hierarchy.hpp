@@ -6,9 +6,14 @@
 // exactly as on the fine level. The "naive" variant merges by position only, for comparison.
 //
 // Every level is distributed like the fine one: a coarse cell lives on the rank of its
-// children (they share a partition super-block as long as the number of levels is at
-// most log2(superblock) + 1), and a coarse vertex copy on the rank of its
-// lowest-numbered incident cell.
+// lowest-numbered child, and a coarse vertex copy on the rank of its lowest-numbered incident
+// cell. Up to log2(superblock) + 1 levels the children of a coarse cell share a partition
+// super-block, so they are all on its rank; below that, and on levels gathered onto fewer
+// ranks, some children are on other ranks (Level::remote_children), which send their part
+// of the Galerkin product to the coarse cell's rank (multigrid/gmg.cpp). A level with fewer
+// than HierarchyOptions::gather_cells cells per rank is gathered onto fewer ranks, the
+// PCTELESCOPE idea: consecutive ranks of the level above merge, so coarsening goes on to a
+// small coarsest level at any size (doc/theory.md, "Parallel layout").
 #pragma once
 
 #include <cstdint>
@@ -34,6 +39,9 @@ struct Level {
   std::shared_ptr<const topology::VertexCopies> copies_ptr;
   std::shared_ptr<const topology::Partition> partition_ptr;
   std::shared_ptr<const topology::DofLayout> layout_ptr;
+  int ranks = 1;  // the level's cells are on ranks 0 .. ranks-1 (fewer once gathered)
+  // Some cell of this level has a child (a cell of the level above) on another rank.
+  bool remote_children = false;
 
   const topology::VertexCopies& copies() const { return *copies_ptr; }
   const topology::Partition& partition() const { return *partition_ptr; }
@@ -55,6 +63,13 @@ struct HierarchyOptions {
   // factored) has at most duplication_dofs DOFs. < 0: no such stop.
   double max_duplication = 0.5;
   std::int64_t duplication_dofs = 150000;
+  // A coarse level with fewer than this many cells per rank of the level above is gathered
+  // onto max(1, cells / gather_cells) ranks: rank r of the level above sends its cells' parents
+  // to rank r * ranks_coarse / ranks_fine. 0: never gathered. Levels below min_levels are
+  // never gathered (a composite level must stay on its fine cells' ranks). Off by default:
+  // transfers to levels with remote children are trilinear and have no Schwarz patches, so
+  // gathering small levels would switch those options off on small bodies.
+  std::int64_t gather_cells = 0;
 };
 
 /// Coarse cells per occupied position, less one: 0 when every block of the level holds one
@@ -66,8 +81,10 @@ double duplication(const topology::CellGraph& graph);
 /// partition and DOF layout (the layout of `rank`), which must outlive the levels.
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, or before a level whose duplication
-/// exceeds max_duplication (when >= 0), and never exceeds
-/// log2(partition.superblock) + 1 levels; it builds at least min_levels (if the cap allows).
+/// exceeds max_duplication (when >= 0); it builds at least min_levels. An explicit depth
+/// (options.levels > 0) is built unless the lattice is a single cell before it (then fewer
+/// levels are returned: the caller reports it). The depth does not depend on the number of
+/// ranks or the super-block.
 std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::VertexCopies& copies,
                                    const topology::Partition& partition,
                                    const topology::DofLayout& layout,

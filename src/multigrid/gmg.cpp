@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <set>
+#include <utility>
 
 #include "assembly/boundary.hpp"
 #include "assembly/fine_cells.hpp"
@@ -24,13 +25,19 @@ struct Multigrid::LevelData {
   const assembly::CellOperator* op = nullptr;                // level 0: fine_op_; else *stored
   std::unique_ptr<StoredCells> stored;                       // l >= 1: Galerkin blocks
   Children children;                                         // l >= 1: local children per cell
-  std::vector<double> diag_inv;                              // 9 per owned copy
-  std::vector<int> colour;                                   // per owned copy
-  std::vector<std::int32_t> colour_list[8];                  // owned copies of each colour
-  std::vector<char> dirty;               // level 0: per local cell, rebuilt by update()
-  assembly::CellPositions cell_pos;      // per local cell
-  std::vector<std::int32_t> local_cell;  // canonical cell -> local index, -1
-  Mat P = nullptr;                       // interpolation from level l+1 (3 DOFs per copy)
+  // l >= 1, levels with remote children: this rank's children of coarse cells on other ranks,
+  // grouped by coarse cell (ascending canonical id), and the star forest that sums each
+  // group's packed product into its coarse cell's block (leaves: groups; roots: local cells).
+  Children remote_groups;
+  PetscSF remote_sf = nullptr;
+  MPI_Datatype block_type = MPI_DATATYPE_NULL;  // kPackedSize doubles
+  std::vector<double> diag_inv;                 // 9 per owned copy
+  std::vector<int> colour;                      // per owned copy
+  std::vector<std::int32_t> colour_list[8];     // owned copies of each colour
+  std::vector<char> dirty;                      // level 0: per local cell, rebuilt by update()
+  assembly::CellPositions cell_pos;             // per local cell
+  std::vector<std::int32_t> local_cell;         // canonical cell -> local index, -1
+  Mat P = nullptr;                              // interpolation from level l+1 (3 DOFs per copy)
   // Smoothed interpolation (levels from assembled_from_ - 1 on): the trilinear P the smoothed
   // one is made from at each full rebuild, the rows smoothed and omega; levels >=
   // assembled_from_ hold their operator as an assembled matrix instead of 24x24 blocks.
@@ -163,7 +170,8 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     }
     data_.push_back(std::move(d));
   }
-  // Children of every local coarse cell (all on this rank: they share a super-block).
+  // Children of every local coarse cell on this rank; on levels with remote children also
+  // this rank's children of coarse cells elsewhere (remote_groups).
   for (int l = 1; l < L; ++l) {
     auto& d = *data_[l];
     auto& ch = d.children;
@@ -171,22 +179,30 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     const std::size_t n = levels_[l].layout().cells.size();
     ch.offset.assign(n + 1, 0);
     std::vector<std::int32_t> parent_of(fine.layout().cells.size());
+    std::vector<std::pair<std::int32_t, std::int32_t>> remote;  // (coarse cell, local child)
     for (std::size_t e = 0; e < fine.layout().cells.size(); ++e) {
-      const auto C = d.local_cell[fine.parent[fine.layout().cells[e]]];
-      PetscCheck(C >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                 "gmg: a coarse cell's children are on different ranks");
+      const auto P = fine.parent[fine.layout().cells[e]];
+      const auto C = d.local_cell[P];
       parent_of[e] = C;
-      ++ch.offset[C + 1];
+      if (C >= 0)
+        ++ch.offset[C + 1];
+      else
+        remote.emplace_back(P, std::int32_t(e));
     }
+    PetscCheck(remote.empty() || levels_[l].remote_children, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "gmg: level %d has remote children it does not know of", l);
+    PetscCheck(!levels_[l].remote_children || l > opt_.first_level, comm, PETSC_ERR_PLIB,
+               "gmg: the composite level %d has children on other ranks", l);
     for (std::size_t C = 0; C < n; ++C) ch.offset[C + 1] += ch.offset[C];
-    ch.child.resize(fine.layout().cells.size());
+    ch.child.resize(std::size_t(ch.offset[n]));
     std::vector<std::int32_t> next(ch.offset.begin(), ch.offset.end() - 1);
     for (std::size_t e = 0; e < fine.layout().cells.size(); ++e)
-      ch.child[next[parent_of[e]]++] = std::int32_t(e);
+      if (parent_of[e] >= 0) ch.child[next[parent_of[e]]++] = std::int32_t(e);
     if (l >= assembled_from_) continue;  // an assembled level: no blocks
     d.stored = std::make_unique<StoredCells>(
         levels_[l].layout(), l > opt_.first_level ? opt_.precision : Precision::double_);
     d.op = d.stored.get();
+    if (levels_[l].remote_children) PetscCall(build_remote_groups(l, std::move(remote)));
   }
   // Interpolation l+1 -> l as a scalar AIJ over copies, expanded to 3 DOFs with MAIJ.
   for (int l = 0; l + 1 < L; ++l) {
@@ -225,10 +241,12 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
   }
   const int first = opt_.first_level;
   PetscCheck(first < L, comm, PETSC_ERR_USER_INPUT,
-             "composite elements of level %d need %d hierarchy levels, but the hierarchy has %d "
-             "(at most log2(super-block) + 1 = %d with super-blocks of %d cells)",
-             first, first + 1, L, 1 + int(std::lround(std::log2(double(partition.superblock)))),
-             partition.superblock);
+             "composite elements of level %d need %d hierarchy levels, but the lattice is a "
+             "single cell after %d",
+             first, first + 1, L);
+  PetscCheck(opt_.hierarchy.levels == 0 || L == opt_.hierarchy.levels, comm, PETSC_ERR_USER_INPUT,
+             "-gmg_levels %d: the lattice is a single cell after %d levels; ask for at most %d",
+             opt_.hierarchy.levels, L, L);
   // Composite runs: each fine cell's ancestor on the first level (its composite element; all
   // on this rank), and a fine cell of each such element, whose rotation is the element's.
   if (first > 0) {
@@ -265,6 +283,57 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Multigrid::build_remote_groups(
+    int l, std::vector<std::pair<std::int32_t, std::int32_t>> remote) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& coarse = levels_[l];
+  // Each rank's cells are in ascending canonical order: the position of coarse cell C among
+  // its owner's cells is its root index there (the partition is known to every rank).
+  std::vector<PetscInt> index_on_owner(std::size_t(coarse.graph.num_cells()));
+  {
+    std::vector<PetscInt> count(std::size_t(coarse.partition().num_ranks), 0);
+    for (std::int32_t C = 0; C < coarse.graph.num_cells(); ++C)
+      index_on_owner[std::size_t(C)] = count[std::size_t(coarse.partition().cell_rank[C])]++;
+  }
+  std::sort(remote.begin(), remote.end());
+  auto& g = d.remote_groups;
+  g.offset.assign(1, 0);
+  g.child.clear();
+  std::vector<PetscSFNode> roots;
+  for (std::size_t k = 0; k < remote.size(); ++k) {
+    const auto C = remote[k].first;
+    if (k == 0 || C != remote[k - 1].first) {
+      if (k > 0) g.offset.push_back(std::int32_t(k));
+      roots.push_back({coarse.partition().cell_rank[C], index_on_owner[std::size_t(C)]});
+    }
+    g.child.push_back(remote[k].second);
+  }
+  if (!remote.empty()) g.offset.push_back(std::int32_t(remote.size()));
+  PetscCall(PetscSFCreate(comm_, &d.remote_sf));
+  PetscCall(PetscSFSetGraph(d.remote_sf, PetscInt(coarse.layout().cells.size()),
+                            PetscInt(roots.size()), nullptr, PETSC_COPY_VALUES, roots.data(),
+                            PETSC_COPY_VALUES));
+  PetscCall(PetscSFSetUp(d.remote_sf));
+  PetscCallMPI(MPI_Type_contiguous(int(kPackedSize), MPI_DOUBLE, &d.block_type));
+  PetscCallMPI(MPI_Type_commit(&d.block_type));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::remote_products(int l, const ChildGalerkin* fast,
+                                          std::vector<double>* sum) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[l];
+  const auto& fd = *data_[l - 1];
+  const std::size_t groups = d.remote_groups.offset.size() - 1;
+  std::vector<double> leaves(kPackedSize * groups);
+  children_products(*fd.op, fd.cell_pos, d.remote_groups, fast, leaves.data());
+  sum->assign(kPackedSize * levels_[l].layout().cells.size(), 0.0);
+  PetscCall(PetscSFReduceBegin(d.remote_sf, d.block_type, leaves.data(), sum->data(), MPI_SUM));
+  PetscCall(PetscSFReduceEnd(d.remote_sf, d.block_type, leaves.data(), sum->data(), MPI_SUM));
+  PetscFunctionReturn(0);
+}
+
 Multigrid::~Multigrid() {
   for (auto& d : data_) {
     VecDestroy(&d->b);
@@ -276,6 +345,8 @@ Multigrid::~Multigrid() {
     MatDestroy(&d->P);
     MatDestroy(&d->P_trilinear);
     MatDestroy(&d->A);
+    PetscSFDestroy(&d->remote_sf);
+    if (d->block_type != MPI_DATATYPE_NULL) MPI_Type_free(&d->block_type);
     if (d->own_dm) DMDestroy(&d->dm);
   }
   MatDestroy(&shell_);
@@ -489,6 +560,23 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     if (rotated && l <= first) {
       // Levels below the composite one are not needed; the composite blocks were rotated.
       rebuilt_[l] = l == first ? std::int64_t(d.stored->dirty().size()) : 0;
+    } else if (levels_[l].remote_children) {
+      // Children on several ranks: rebuilt whole wherever any block above it changed (a
+      // collective decision), from the local children and the others' summed products.
+      const auto& fine_dirty = l == 1 ? d0.dirty : fd.stored->dirty();
+      int any = std::find(fine_dirty.begin(), fine_dirty.end(), char(1)) != fine_dirty.end();
+      PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_LOR, comm_));
+      const FineChildGalerkin fine_products(fine_tables_, fine_op_->data());
+      const ChildGalerkin* fast = l == 1 ? &fine_products : nullptr;
+      if (any) {
+        std::vector<double> sum;
+        PetscCall(remote_products(l, fast, &sum));
+        rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children, fine_dirty, nullptr, fast,
+                                         sum.data());
+        if (l == 1) built_rotation_ = cells.rotation;  // every fine cell's block was rebuilt
+      } else {
+        rebuilt_[l] = d.stored->galerkin(*fd.op, fd.cell_pos, d.children, fine_dirty);
+      }
     } else {
       // Level 1 from the fine cells: their products from fine_tables_, rotated.
       const FineChildGalerkin fine_products(fine_tables_, fine_op_->data());
@@ -726,7 +814,8 @@ bool Multigrid::has_irregular_parents(int l) const {
 
 bool Multigrid::uses_schwarz(int l) const {
   return opt_.smoother == Smoother::chebyshev && opt_.schwarz_from >= 0 && l < assembled_from_ &&
-         l >= std::max(opt_.schwarz_from, opt_.first_level) && has_irregular_parents(l);
+         l >= std::max(opt_.schwarz_from, opt_.first_level) && has_irregular_parents(l) &&
+         !levels_[l + 1].remote_children;  // a patch holds the children of one rank's cell
 }
 
 PetscErrorCode Multigrid::precondition(int l, Vec r, Vec z) {
@@ -821,8 +910,10 @@ PetscErrorCode Multigrid::build_interpolation(int l) {
   PetscFunctionBeginUser;
   auto& d = *data_[l];
   const auto& irregular = irregular_[l + 1];
+  // Transfers to levels with remote children stay trilinear: a child's energy rows would
+  // need its coarse cell's corners on the child's rank.
   if (opt_.interpolation != Interpolation::energy || l < opt_.energy_from ||
-      !has_irregular_parents(l)) {
+      !has_irregular_parents(l) || levels_[l + 1].remote_children) {
     rows_[l] = InterpolationRows{};
     energy_stats_[l] = EnergyStats{};
     PetscFunctionReturn(0);  // the trilinear MAIJ of build() stays
@@ -1248,6 +1339,10 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
                                      l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)"
                                      : data_[l]->A         ? "  (assembled: P^T A P)"
                                                            : ""));
+    if (lev.ranks < levels_[0].ranks || lev.remote_children)
+      PetscCall(PetscViewerASCIIPrintf(viewer, "        on %d of %d ranks%s\n", lev.ranks,
+                                       levels_[0].ranks,
+                                       lev.remote_children ? ", children on other ranks" : ""));
   }
   if (opt_.smoother == Smoother::chebyshev) {
     PetscCall(PetscViewerASCIIPrintf(viewer, "  lambda_max(D^-1 A) estimates:"));

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <petscksp.h>
+#include <petscsf.h>
 
 #include <memory>
 #include <vector>
@@ -230,6 +231,14 @@ class Multigrid {
   PetscErrorCode estimate_lambda_max(int l);
   PetscErrorCode build_coarsest();
   PetscErrorCode build_interpolation(int l);
+  /// Levels with remote children: groups this rank's children of level l's cells on other
+  /// ranks (`remote`: (coarse cell, local child of level l-1) pairs) and builds the star forest
+  /// that sums their products into the owners' blocks.
+  PetscErrorCode build_remote_groups(int l,
+                                     std::vector<std::pair<std::int32_t, std::int32_t>> remote);
+  /// Those groups' Galerkin products summed onto their coarse cells' ranks: kPackedSize per
+  /// local cell of level l in *sum (collective).
+  PetscErrorCode remote_products(int l, const ChildGalerkin* fast, std::vector<double>* sum);
   /// Smoothed interpolation: levels >= assembled_from_ as P^T A P of the level above, from the
   /// assembled operator of level assembled_from_ - 1 down, and the coarsest solver.
   PetscErrorCode build_smoothed_chain();

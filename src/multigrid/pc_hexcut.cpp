@@ -58,7 +58,8 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsInt("-gmg_levels", "Number of levels (0: automatic, from -gmg_coarse_dofs)",
                             "", o.hierarchy.levels, &n, &set));
   if (set) {
-    PetscCheck(n >= 1, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_levels must be >= 1");
+    PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_levels must be >= 1, or 0 for automatic");
     o.hierarchy.levels = int(n);
   }
   PetscCall(PetscOptionsInt("-gmg_coarse_dofs",
@@ -80,6 +81,14 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                             "stops at has at most this many DOFs (it is factored)",
                             "", PetscInt(o.hierarchy.duplication_dofs), &n, &set));
   if (set) o.hierarchy.duplication_dofs = n;
+  PetscCall(PetscOptionsInt("-gmg_gather_cells",
+                            "A level with fewer than this many cells per rank is gathered onto "
+                            "fewer ranks (0: never)",
+                            "", PetscInt(o.hierarchy.gather_cells), &n, &set));
+  if (set) {
+    PetscCheck(n >= 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "-gmg_gather_cells must be >= 0");
+    o.hierarchy.gather_cells = n;
+  }
   choice = o.hierarchy.mode == hierarchy::Coarsening::naive ? 1 : 0;
   PetscCall(PetscOptionsEList("-gmg_hierarchy",
                               "Coarsening: components (pieces of a 2x2x2 block get their own "

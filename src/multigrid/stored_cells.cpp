@@ -38,11 +38,12 @@ StoredCells::~StoredCells() {
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
                                    const assembly::CellPositions& fine_position,
                                    const Children& children, const std::vector<char>& fine_dirty,
-                                   const InterpolationRows* rows, const ChildGalerkin* fast) {
+                                   const InterpolationRows* rows, const ChildGalerkin* fast,
+                                   const double* remote_sum) {
   // Each block is accumulated in full 24x24 form from its (at most 8) children, then
   // stored packed.
   const std::size_t n = num_cells();
-  dirty_.assign(n, 0);
+  dirty_.assign(n, remote_sum ? 1 : 0);
   std::int64_t rebuilt = 0;
   for (std::size_t C = 0; C < n; ++C) {
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k)
@@ -67,6 +68,7 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
   for (std::size_t C = 0; C < n; ++C) {
     if (!dirty_[C]) continue;
     std::fill(parent, parent + 576, 0.0);
+    if (remote_sum) unpack_symmetric(remote_sum + kPackedSize * C, parent);
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k) {
       const auto e = std::size_t(children.child[k]);
       const auto& p = fine_position[e];
@@ -92,6 +94,25 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
       pack_symmetric(parent, floats() + kPackedSize * C);
   }
   return rebuilt;
+}
+
+void children_products(const assembly::CellOperator& fine,
+                       const assembly::CellPositions& fine_position, const Children& groups,
+                       const ChildGalerkin* fast, double* packed) {
+  double child[576], parent[576];
+  for (std::size_t G = 0; G + 1 < groups.offset.size(); ++G) {
+    std::fill(parent, parent + 576, 0.0);
+    for (auto k = groups.offset[G]; k < groups.offset[G + 1]; ++k) {
+      const auto e = std::size_t(groups.child[k]);
+      const auto& p = fine_position[e];
+      const int octant = element::parity_octant(p[0], p[1], p[2]);
+      if (!fast || !fast->add(e, octant, parent)) {
+        fine.cell_matrix(e, child);
+        galerkin_accumulate(child, octant, parent);
+      }
+    }
+    pack_symmetric(parent, packed + kPackedSize * G);
+  }
 }
 
 void StoredCells::round_to_single() {

@@ -17,7 +17,7 @@
 namespace hexcut::multigrid {
 
 /// The children of each cell of a coarse level: local cells child[offset[C]..offset[C+1])
-/// of the finer level (all on the same rank: they share a super-block).
+/// of the finer level (those on this rank; see StoredCells::galerkin for the others).
 struct Children {
   std::vector<std::int32_t> offset, child;
 };
@@ -40,6 +40,14 @@ class ChildGalerkin {
 /// precision").
 enum class Precision { double_, single };
 
+/// Packed sum_c W_c^T A_c W_c over each group of `groups` (groups.offset.size() - 1 of them;
+/// kPackedSize numbers each into `packed`): the trilinear Galerkin products of children whose
+/// coarse cell is on another rank, formed on their own rank. `fast` as in
+/// StoredCells::galerkin (may be null).
+void children_products(const assembly::CellOperator& fine,
+                       const assembly::CellPositions& fine_position, const Children& groups,
+                       const ChildGalerkin* fast, double* packed);
+
 class StoredCells final : public assembly::CellOperator {
  public:
   /// Zero blocks for the layout's local cells (single precision: none until galerkin()).
@@ -57,11 +65,16 @@ class StoredCells final : public assembly::CellOperator {
   /// (energy-minimizing rows; may be null), whose 24x24 W_c comes from them
   /// (child_interpolation). `fast` (may be null) forms the trilinear products of the
   /// children it can. Marks the rebuilt cells in dirty() and returns how many there were.
+  ///
+  /// Levels with remote children (hierarchy::Level::remote_children): `remote_sum` holds,
+  /// kPackedSize per local cell, the products of its children on other ranks already summed
+  /// (children_products() there, reduced here); every block is then rebuilt from its local
+  /// children plus that sum.
   std::int64_t galerkin(const assembly::CellOperator& fine,
                         const assembly::CellPositions& fine_position, const Children& children,
                         const std::vector<char>& fine_dirty,
                         const InterpolationRows* rows = nullptr,
-                        const ChildGalerkin* fast = nullptr);
+                        const ChildGalerkin* fast = nullptr, const double* remote_sum = nullptr);
   /// Single precision: the blocks a full galerkin() left in double are rounded to float
   /// and the double copy freed (call it once the next level is built); a no-op otherwise.
   /// Every action uses the double blocks while they are held; the rounding is done in

@@ -1,12 +1,13 @@
 // Distribution of cells and vertex copies over MPI ranks (doc/theory.md, "Parallel layout"). The
 // lattice is cut into super-blocks of `superblock` cells per side and whole super-blocks go to
-// ranks, so every coarse cell of a multigrid hierarchy up to log2(superblock)+1 levels lies on one
-// rank. Three methods assign them (-hexcut_partition; doc/benchmarks.md, "Partitioning"): METIS
-// k-way on the super-block face-adjacency graph weighted by material cell count (the default),
-// PT-Scotch on the same graph through PETSc's MatPartitioning, distributed over the ranks, or a
-// Hilbert space-filling curve through the super-blocks cut into pieces of equal cell count. A
-// vertex copy is owned by the owner of its lowest-numbered incident cell. Every rank ends with the
-// same partition.
+// ranks, so up to log2(superblock)+1 levels of a multigrid hierarchy the children of every coarse
+// cell lie on one rank (deeper levels sum their children's products across ranks). Three methods
+// assign them (-hexcut_partition; doc/benchmarks.md, "Partitioning"): METIS k-way on the
+// super-block face-adjacency graph weighted by material cell count (the default), PT-Scotch on the
+// same graph through PETSc's MatPartitioning, distributed over the ranks, or a Hilbert
+// space-filling curve through the super-blocks cut into pieces of equal cell count. A vertex copy
+// is owned by the owner of its lowest-numbered incident cell. Every rank ends with the same
+// partition.
 #pragma once
 
 #include <mpi.h>

@@ -80,8 +80,13 @@ def main():
           "hexcut geometric multigrid" in out,
           "--check -help lists the -gmg_* options")
     # Bad values of the multigrid's options are input errors (exit 2) with the option's name.
+    rc, out, err = run([path, "--check", "-gmg_levels", "-1"])
+    check(rc == 2 and "-gmg_levels must be >= 1" in err, f"-gmg_levels -1 is exit 2 (rc {rc}) {err}")
     rc, out, err = run([path, "--check", "-gmg_levels", "0"])
-    check(rc == 2 and "-gmg_levels must be >= 1" in err, f"-gmg_levels 0 is exit 2 (rc {rc}) {err}")
+    check(rc == 0, f"-gmg_levels 0 (automatic, as its help says) is accepted (rc {rc}) {err}")
+    rc, out, err = run([path, "--check", "-gmg_gather_cells", "-5"])
+    check(rc == 2 and "-gmg_gather_cells must be >= 0" in err,
+          f"-gmg_gather_cells -5 is exit 2 (rc {rc}) {err}")
     rc, out, err = run([path, "--check", "-gmg_smoother", "sor"])
     check(rc == 2 and "gmg_smoother" in err, f"-gmg_smoother sor is exit 2 (rc {rc}) {err}")
     rc, out, err = run([path, "--check", "-gmg_interpolation", "smoothed", "-gmg_smoother", "gs"])
