@@ -7,8 +7,10 @@ act before the solve), on 2, 4, 8 and 16 ranks (hexcut --check, oversubscribed: 
 not depend on the cores), it prints the balance (cells and DOFs, max over mean; DOFs again after
 the cuts, which add vertex copies but move no cell), the face links between ranks and the ghost
 DOFs (what the halo exchanges move). Then the time of the whole run on 2 ranks per method (best of
---repeats), the only rank count this 2-core machine times honestly.
-  /usr/bin/python3 scripts/bench/partitioning.py [--ranks 2 4 8 16] [--repeats 2]"""
+--repeats), the only rank count this 2-core machine times honestly. --repartition X ... runs the
+cut case again with -hexcut_repartition X (re-partition after the cuts when the DOFs' max/mean
+exceeds X; 0 = never, hexcut's default).
+  /usr/bin/python3 scripts/bench/partitioning.py [--ranks 2 4 8 16] [--repeats 2] [--repartition 0 1.05]"""
 import argparse
 import os
 import re
@@ -32,8 +34,9 @@ def cases(work):
     return {"bunny": os.path.join(ROOT, "input", "examples", "bunny.yaml"), "blade grid 48^3": path}
 
 
-def check(deck, ranks, method):
-    p = subprocess.run([*MPIEXEC, "-n", str(ranks), HEXCUT, deck, "--check", "-hexcut_partition", method],
+def check(deck, ranks, method, repartition):
+    p = subprocess.run([*MPIEXEC, "-n", str(ranks), HEXCUT, deck, "--check", "-hexcut_partition", method,
+                        "-hexcut_repartition", repartition],
                        env=ENV, capture_output=True, text=True)
     m = re.search(r"partition \S+, super-blocks of (\d+): cells max/mean ([\d.]+), DOFs max/mean ([\d.]+), "
                   r"(\d+) links between ranks, ghost DOFs ([\d.]+)% of all \((\d+) on the rank with most\)", p.stdout)
@@ -44,12 +47,13 @@ def check(deck, ranks, method):
                 ghosts=float(m.group(5)), max_ghosts=int(m.group(6)), after=float(cut.group(1)) if cut else None)
 
 
-def timed(deck, method, work, repeats):
+def timed(deck, method, work, repeats, repartition):
     best = None
     for _ in range(repeats):
         out = os.path.join(work, "run")
         log = os.path.join(work, "log.txt")
         p = subprocess.run([*MPIEXEC, "-n", "2", HEXCUT, deck, "-hexcut_partition", method,
+                            "-hexcut_repartition", repartition,
                             "-hexcut_output_directory", out, "--overwrite", "-log_view", f":{log}"],
                            env=ENV, capture_output=True, text=True)
         if p.returncode != 0:
@@ -65,26 +69,30 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--ranks", type=int, nargs="+", default=[2, 4, 8, 16])
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--repartition", nargs="+", default=["0"])
     a = ap.parse_args()
     work = tempfile.mkdtemp(prefix="hexcut_partitioning_")
     decks = cases(work)
-    print("| case | ranks | method | super-block | cells max/mean | DOFs max/mean | after cuts | "
-          "links between ranks | ghost DOFs % | ghost DOFs on the rank with most |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for name, deck in decks.items():
+    # The bunny has no cuts: re-partitioning never applies to it.
+    runs = [(name, deck, x) for name, deck in decks.items()
+            for x in (a.repartition if name != "bunny" else a.repartition[:1])]
+    print("| case | -hexcut_repartition | ranks | method | super-block | cells max/mean | DOFs max/mean | "
+          "after cuts | links between ranks | ghost DOFs % | ghost DOFs on the rank with most |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for name, deck, x in runs:
         for P in a.ranks:
             for m in METHODS:
-                r = check(deck, P, m)
+                r = check(deck, P, m, x)
                 after = f"{r['after']:.3f}" if r["after"] is not None else "–"
-                print(f"| {name} | {P} | {m} | {r['sb']} | {r['cells']:.3f} | {r['dofs']:.3f} | {after} | "
+                print(f"| {name} | {x} | {P} | {m} | {r['sb']} | {r['cells']:.3f} | {r['dofs']:.3f} | {after} | "
                       f"{r['links']} | {r['ghosts']:.2f} | {r['max_ghosts']} |", flush=True)
     print("\n2 ranks, whole run (best of %d per method):\n" % a.repeats)
-    print("| case | method | total [s] | solve [s] |")
-    print("|---|---|---|---|")
-    for name, deck in decks.items():
+    print("| case | -hexcut_repartition | method | total [s] | solve [s] |")
+    print("|---|---|---|---|---|")
+    for name, deck, x in runs:
         for m in METHODS:
-            total, solve = timed(deck, m, work, a.repeats)
-            print(f"| {name} | {m} | {total:.2f} | {solve:.2f} |", flush=True)
+            total, solve = timed(deck, m, work, a.repeats, x)
+            print(f"| {name} | {x} | {m} | {total:.2f} | {solve:.2f} |", flush=True)
     shutil.rmtree(work, ignore_errors=True)
 
 

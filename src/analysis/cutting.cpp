@@ -81,38 +81,31 @@ PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* M
   M->dm = nullptr;
   PetscCall(VecDestroy(&M->coordinates));
   PetscCall(rebuild_topology(comm, deck, M));
-  // Old values of every local old copy (owned + ghosts).
-  std::vector<std::int32_t> old_local(old_copies.num_copies, -1);
-  for (std::int32_t i = 0; i < old_layout.num_local(); ++i) old_local[old_layout.copies[i]] = i;
+  // Each new owned copy takes the values of the old copy at the same corner of its
+  // lowest-numbered cell (the copies that a cut splits start from the value they had). The
+  // old copy may be on another rank when the cut re-partitioned: one scatter moves them.
+  std::vector<PetscInt> old_block(std::size_t(M->layout.num_owned));
+  for (std::int32_t i = 0; i < M->layout.num_owned; ++i) {
+    const auto copy = M->layout.copies[i];
+    const auto cell = M->copies.first_cell[copy];
+    int q = 0;
+    while (M->copies.cell_corners[cell][q] != copy) ++q;
+    old_block[std::size_t(i)] = old_layout.global_block[old_copies.cell_corners[cell][q]];
+  }
   State fresh;
   PetscCall(create_state(M->dm, &fresh));
+  IS from_old;
+  VecScatter move;
+  PetscCall(ISCreateBlock(comm, 3, PetscInt(old_block.size()), old_block.data(), PETSC_USE_POINTER,
+                          &from_old));
+  PetscCall(VecScatterCreate(s->u, from_old, fresh.u, nullptr, &move));
   for (auto [from, to] :
        {std::pair{s->u, fresh.u}, std::pair{s->v, fresh.v}, std::pair{s->a, fresh.a}}) {
-    Vec ol;
-    PetscCall(DMGetLocalVector(old_dm, &ol));
-    PetscCall(DMGlobalToLocalBegin(old_dm, from, INSERT_VALUES, ol));
-    PetscCall(DMGlobalToLocalEnd(old_dm, from, INSERT_VALUES, ol));
-    const PetscScalar* o;
-    PetscScalar* n;
-    PetscCall(VecGetArrayRead(ol, &o));
-    PetscCall(VecGetArray(to, &n));
-    // A new copy is owned by the rank of its lowest-numbered incident cell; that cell is
-    // local here and was incident to the old copy at the same corner, so the old copy is
-    // in this rank's old local vector.
-    for (std::int32_t i = 0; i < M->layout.num_owned; ++i) {
-      const auto copy = M->layout.copies[i];
-      const auto cell = M->copies.first_cell[copy];
-      int q = 0;
-      while (M->copies.cell_corners[cell][q] != copy) ++q;
-      const auto k = old_local[old_copies.cell_corners[cell][q]];
-      PetscCheck(k >= 0, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                 "cut: old vertex copy not local to the new owner");
-      for (int d = 0; d < 3; ++d) n[3 * i + d] = o[3 * k + d];
-    }
-    PetscCall(VecRestoreArray(to, &n));
-    PetscCall(VecRestoreArrayRead(ol, &o));
-    PetscCall(DMRestoreLocalVector(old_dm, &ol));
+    PetscCall(VecScatterBegin(move, from, to, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(move, from, to, INSERT_VALUES, SCATTER_FORWARD));
   }
+  PetscCall(VecScatterDestroy(&move));
+  PetscCall(ISDestroy(&from_old));
   fresh.time = s->time;
   fresh.step = s->step;
   PetscCall(destroy_state(s));
@@ -127,12 +120,14 @@ PetscErrorCode apply_due_cuts(MPI_Comm comm, const deck::Deck& deck, Cutter& cut
   PetscFunctionBeginUser;
   CutReport r;
   PetscCall(cutter.cut_due(comm, t, *M, s->u, &r));
-  if (report) *report = r;
   if (r.links > 0) {
     EventScope scope(events().rebuild);
+    const int before = M->repartitions;
     PetscCall(rebuild_after_cut(comm, deck, M, s));
+    r.repartitioned = M->repartitions > before;
     if (follow_topology) PetscCall(follow_topology());
   }
+  if (report) *report = r;
   PetscFunctionReturn(0);
 }
 

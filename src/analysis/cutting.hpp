@@ -19,8 +19,9 @@ namespace hexcut::analysis {
 
 /// What one application of due cut events did (identical on every rank).
 struct CutReport {
-  int events = 0;          // cut events applied
-  std::int64_t links = 0;  // links disconnected
+  int events = 0;              // cut events applied
+  std::int64_t links = 0;      // links disconnected
+  bool repartitioned = false;  // the rebuild re-partitioned (Model::repartition_imbalance)
 };
 
 /// The deck's cut events and the tree that finds the links they cross.

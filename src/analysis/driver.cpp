@@ -27,9 +27,11 @@ std::int64_t Driver::total_steps() const {
 
 PetscErrorCode Driver::follow_topology() {
   PetscFunctionBeginUser;
-  // Composite runs reuse the elements the cut left whole (none on a restart's first set-up).
+  // Composite runs reuse the elements the cut left whole (none on a restart's first set-up,
+  // nor after a re-partition: the carried elements are those of this rank's old cells).
   CompositeCarry carry;
-  if (sim_) carry = sim_->composite_carry();
+  if (sim_ && model_.repartitions == repartitions_seen_) carry = sim_->composite_carry();
+  repartitions_seen_ = model_.repartitions;
   sim_.reset();
   PetscCall(Simulation::create(comm_, model_, deck_, &sim_, &carry));
   if (out_) PetscCall(out_->topology_changed());

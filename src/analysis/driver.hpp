@@ -6,8 +6,9 @@
 // deformed configuration at the start of the step that reaches its time), the follow-up of a
 // topology change (a new Simulation for the new DM, the output's tables), the result output and
 // checkpoints per the deck's output section, and a limit on the steps of one invocation
-// (-hexcut_max_steps). Composite rebuilds and repartitioning (next issues) hook in at
-// follow_topology().
+// (-hexcut_max_steps). A cut may re-partition the cells (Model::repartition_imbalance, in
+// analysis::rebuild_topology); follow_topology() then drops the composite elements it would
+// otherwise carry.
 #pragma once
 
 #include <cstdint>
@@ -100,6 +101,7 @@ class Driver {
   Cutter cutter_;
   EnergyMonitor energy_;
   ResultOutput* out_ = nullptr;
+  int repartitions_seen_ = 0;  // model_.repartitions when the Simulation was made
 };
 
 }  // namespace hexcut::analysis

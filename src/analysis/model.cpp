@@ -134,7 +134,7 @@ PetscErrorCode build_distributed_data(MPI_Comm comm, const deck::Deck& deck, int
 }  // namespace
 
 PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* M,
-                           topology::PartitionMethod method) {
+                           topology::PartitionMethod method, double repartition_imbalance) {
   PetscFunctionBeginUser;
   PetscMPIInt rank, size;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
@@ -156,6 +156,9 @@ PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock
     min_superblock = 1 << deck.discretization.level;
     superblock = std::max(superblock, 4 * min_superblock);
   }
+  M->partition_method = method;
+  M->min_superblock = min_superblock;
+  M->repartition_imbalance = repartition_imbalance;
   M->partition = topology::partition_lattice(M->lattice, M->copies, size, superblock,
                                              min_superblock, method, comm);
   PetscCall(build_distributed_data(comm, deck, rank, M));
@@ -171,6 +174,15 @@ PetscErrorCode rebuild_topology(MPI_Comm comm, const deck::Deck& deck, Model* M)
   P.copy_rank.resize(M->copies.num_copies);
   for (std::int32_t v = 0; v < M->copies.num_copies; ++v)
     P.copy_rank[v] = P.cell_rank[M->copies.first_cell[v]];
+  if (P.num_ranks > 1 && M->repartition_imbalance > 0) {
+    // Every rank holds the same lattice and copies: the same decision and partition on all.
+    const auto s = topology::partition_stats(M->lattice, M->copies, P);
+    if (double(s.max_copies) / s.mean_copies > M->repartition_imbalance) {
+      P = topology::partition_lattice(M->lattice, M->copies, P.num_ranks, P.superblock,
+                                      M->min_superblock, M->partition_method, comm, true);
+      ++M->repartitions;
+    }
+  }
   PetscCall(build_distributed_data(comm, deck, rank, M));
   PetscFunctionReturn(0);
 }

@@ -26,6 +26,13 @@ struct Model {
   assembly::CellData cells;   // operator data of the local cells
   assembly::Boundary boundary;
   std::vector<std::string> warnings;  // "file:line: warning: ..." found while building
+  // How the partition is made, kept for re-partitioning after cuts (build_model's arguments).
+  topology::PartitionMethod partition_method = topology::PartitionMethod::metis;
+  int min_superblock = 1;
+  // After a cut, the super-blocks are re-partitioned (cells and vertex copies balanced) when
+  // the owned DOFs' max/mean over ranks exceeds this; 0: never (-hexcut_repartition).
+  double repartition_imbalance = 0;
+  int repartitions = 0;  // how often that happened (the cells changed ranks)
 };
 
 /// Voxelizes the deck's geometry. Throws InputError (with the deck line) when the body
@@ -35,14 +42,18 @@ lattice::Lattice build_lattice(const deck::Deck& deck,
                                std::vector<std::string>* warnings = nullptr);
 
 /// Builds the whole model on `comm`. `superblock` = cells per super-block side, `method` how
-/// super-blocks are assigned to ranks (topology/partition.hpp).
+/// super-blocks are assigned to ranks (topology/partition.hpp), `repartition_imbalance` as
+/// Model::repartition_imbalance.
 PetscErrorCode build_model(MPI_Comm comm, const deck::Deck& deck, int superblock, Model* model,
-                           topology::PartitionMethod method = topology::PartitionMethod::metis);
+                           topology::PartitionMethod method = topology::PartitionMethod::metis,
+                           double repartition_imbalance = 0);
 PetscErrorCode destroy_model(Model* model);
 
 /// After the lattice's links changed (a cut): rebuilds vertex copies, DOF layout, DM,
 /// reference positions, cell data and boundary data. The cells keep their ranks (their
-/// super-blocks do not move); a new copy goes to the rank of its lowest-numbered cell.
+/// super-blocks do not move) unless the DOFs' imbalance exceeds model->repartition_imbalance
+/// (then the super-blocks are re-partitioned, balancing cells and copies, and
+/// model->repartitions grows); a new copy goes to the rank of its lowest-numbered cell.
 /// model->dm and model->coordinates must have been released (or handed over) before.
 PetscErrorCode rebuild_topology(MPI_Comm comm, const deck::Deck& deck, Model* model);
 

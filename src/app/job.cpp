@@ -58,13 +58,18 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
     return;
   }
   const auto pieces = analysis::find_pieces(comm, model);
-  // The partition stays (a cut changes links, not cells); the copies it adds may unbalance it.
+  // The partition stays (a cut changes links, not cells); the copies it adds may unbalance it,
+  // and -hexcut_repartition then re-partitions.
   std::string balance;
   if (model.partition.num_ranks > 1) {
     const auto s = topology::partition_stats(model.lattice, model.copies, model.partition);
-    char buf[64];
+    char buf[128];
     std::snprintf(buf, sizeof buf, " (DOFs max/mean over ranks %.3f)",
                   double(s.max_copies) / s.mean_copies);
+    if (r.repartitioned)
+      std::snprintf(buf, sizeof buf,
+                    " (DOFs max/mean over ranks %.3f, re-partitioned: cells max/mean %.3f)",
+                    double(s.max_copies) / s.mean_copies, double(s.max_cells) / s.mean_cells);
     balance = buf;
   }
   PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies%s\n",
@@ -230,8 +235,8 @@ void check_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions&) {
     throw InputError(problem);
   if (deck.compare) (void)an::ReferenceState{comm, *deck.compare, deck.lattice};  // its checks
   an::Model model;
-  throw_on_petsc_error(
-      an::build_model(comm, deck, options.hexcut.superblock, &model, options.hexcut.partition));
+  throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model,
+                                       options.hexcut.partition, options.hexcut.repartition));
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "%s: %d cells, %d DOFs, %d prescribed\n", deck.path.c_str(),
               int(model.lattice.num_cells()), 3 * int(model.copies.num_copies),
@@ -289,8 +294,8 @@ void run_job(MPI_Comm comm, const deck::Deck& deck_in, const JobOptions& job) {
   an::Model model;
   {
     const an::EventScope scope(ev.setup);
-    throw_on_petsc_error(
-        an::build_model(comm, deck, options.hexcut.superblock, &model, options.hexcut.partition));
+    throw_on_petsc_error(an::build_model(comm, deck, options.hexcut.superblock, &model,
+                                         options.hexcut.partition, options.hexcut.repartition));
   }
   print_warnings(comm, deck, model);
   PetscPrintf(comm, "hexcut: %d cells, %d vertex copies, %d DOFs (%d prescribed), %d rank(s)\n",

@@ -28,6 +28,8 @@ const char* kUsage =
     "PETSc options on the command line override the deck's solver.petsc_options.\n"
     "hexcut options: -hexcut_superblock N (cells per partition block side, default 8),\n"
     "                -hexcut_partition metis|ptscotch|sfc (super-blocks to ranks),\n"
+    "                -hexcut_repartition X (after a cut, re-partition when the DOFs'\n"
+    "                max/mean over ranks exceeds X; 0 = never, the default),\n"
     "                -hexcut_max_steps N (stop after N steps; continue with --restart),\n"
     "                -hexcut_residual_history FILE (Krylov residuals of every solve),\n"
     "                -hexcut_refine R (the deck's lattice with cells R times smaller),\n"

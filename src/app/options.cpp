@@ -22,7 +22,8 @@ const std::vector<std::string> kKnown = {"-hexcut_composite_carry",  "-hexcut_co
                                          "-hexcut_composite_rotate", "-hexcut_max_steps",
                                          "-hexcut_memory_available", "-hexcut_output_directory",
                                          "-hexcut_partition",        "-hexcut_refine",
-                                         "-hexcut_residual_history", "-hexcut_superblock"};
+                                         "-hexcut_repartition",      "-hexcut_residual_history",
+                                         "-hexcut_superblock"};
 
 std::string lower(std::string s) {
   for (auto& ch : s) ch = char(std::tolower(static_cast<unsigned char>(ch)));
@@ -123,6 +124,17 @@ HexcutOptions read_hexcut_options() {
       if (lower(value) == topology::method_name(m)) o.partition = m, found = true;
     if (!found)
       throw InputError("-hexcut_partition must be metis, ptscotch or sfc, got '" + value + "'");
+  }
+  if (option_string("-hexcut_repartition", &value)) {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !std::isfinite(v) || !(v == 0 || v >= 1))
+      throw InputError(
+          "-hexcut_repartition must be 0 (never) or a DOF imbalance max/mean >= 1, "
+          "got '" +
+          value + "'");
+    o.repartition = v;
   }
   if (option_string("-hexcut_output_directory", &value)) {
     if (value.empty()) throw InputError("-hexcut_output_directory needs a directory");

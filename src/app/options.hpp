@@ -24,6 +24,9 @@ struct HexcutOptions {
   // up, so the lattice still covers the deck's box), for convergence and weak-scaling studies.
   double refine = 1.0;
   std::string output_directory;  // -hexcut_output_directory DIR: replaces output.directory
+  // -hexcut_repartition X: after a cut, re-partition when the DOFs' max/mean over ranks
+  // exceeds X (>= 1; 0: never).
+  double repartition = 0;
 };
 
 /// Reads and validates every -hexcut_* option in the options database. Throws

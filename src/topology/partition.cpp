@@ -62,6 +62,9 @@ namespace {
 struct BlockGraph {
   std::vector<std::array<std::int64_t, 3>> position;  // per block: super-block index
   std::vector<idx_t> weight, xadj, adjncy;
+  // Empty, or per block the vertex copies whose lowest-numbered cell is in it (their owner's
+  // DOFs / 3): a second balance constraint after cuts.
+  std::vector<idx_t> copies;
 };
 
 BlockGraph block_graph(const std::map<std::int64_t, int>& block_id,
@@ -94,13 +97,23 @@ BlockGraph block_graph(const std::map<std::int64_t, int>& block_id,
 }
 
 std::vector<int> metis_parts(BlockGraph& G, int num_ranks) {
-  idx_t ncon = 1, nparts = num_ranks, objval = 0, nv = idx_t(G.weight.size());
-  std::vector<idx_t> part(G.weight.size(), 0);
+  const std::size_t n = G.weight.size();
+  idx_t ncon = G.copies.empty() ? 1 : 2, nparts = num_ranks, objval = 0, nv = idx_t(n);
+  // Two constraints (cells, copies) interleaved per vertex, as METIS wants them.
+  std::vector<idx_t> weights = G.weight;
+  if (ncon == 2) {
+    weights.resize(2 * n);
+    for (std::size_t b = 0; b < n; ++b) {
+      weights[2 * b] = G.weight[b];
+      weights[2 * b + 1] = G.copies[b];
+    }
+  }
+  std::vector<idx_t> part(n, 0);
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);
   options[METIS_OPTION_SEED] = 1;  // deterministic on every rank
   const int status =
-      METIS_PartGraphKway(&nv, &ncon, G.xadj.data(), G.adjncy.data(), G.weight.data(), nullptr,
+      METIS_PartGraphKway(&nv, &ncon, G.xadj.data(), G.adjncy.data(), weights.data(), nullptr,
                           nullptr, &nparts, nullptr, nullptr, options, &objval, part.data());
   if (status != METIS_OK) throw std::runtime_error("METIS_PartGraphKway failed");
   return {part.begin(), part.end()};
@@ -179,7 +192,7 @@ std::vector<int> curve_parts(const BlockGraph& G, const std::array<std::int64_t,
 
 Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, int num_ranks,
                             int superblock, int min_superblock, PartitionMethod method,
-                            MPI_Comm comm) {
+                            MPI_Comm comm, bool balance_copies) {
   Partition P;
   P.num_ranks = num_ranks;
   const std::int32_t n = L.num_cells();
@@ -211,6 +224,13 @@ Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, in
           std::to_string(block_id.size()) + " (of " + std::to_string(sb) +
           " cells per side); run on at most " + std::to_string(block_id.size()) + " ranks");
     auto G = block_graph(block_id, nb, block_of_cell);
+    if (balance_copies) {
+      G.copies.assign(G.weight.size(), 0);
+      for (std::int32_t v = 0; v < V.num_copies; ++v) ++G.copies[block_of_cell[V.first_cell[v]]];
+      // PT-Scotch and the curve take one weight: cells plus copies.
+      if (method != PartitionMethod::metis)
+        for (std::size_t b = 0; b < G.weight.size(); ++b) G.weight[b] += G.copies[b];
+    }
     const auto part = method == PartitionMethod::metis      ? metis_parts(G, num_ranks)
                       : method == PartitionMethod::ptscotch ? ptscotch_parts(G, num_ranks, comm)
                                                             : curve_parts(G, nb, num_ranks);

@@ -38,11 +38,13 @@ struct Partition {
 /// 2^l: a composite element must lie on one rank). PT-Scotch partitions the super-block graph
 /// distributed over `comm` (collective on it; any size, the result is gathered on every rank);
 /// METIS and the curve compute it on every rank alike. Throws InputError when there are fewer
-/// super-blocks than ranks.
+/// super-blocks than ranks. `balance_copies` (after cuts, which add vertex copies but no cells):
+/// the vertex copies each super-block owns are balanced too, as METIS's second constraint, or
+/// added to the cell counts for PT-Scotch and the curve (one weight each).
 Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies& copies,
                             int num_ranks, int superblock, int min_superblock = 1,
                             PartitionMethod method = PartitionMethod::metis,
-                            MPI_Comm comm = MPI_COMM_SELF);
+                            MPI_Comm comm = MPI_COMM_SELF, bool balance_copies = false);
 
 /// What a partition costs: balance and communication. Cells and owned vertex copies (DOFs / 3)
 /// per rank, the face links between cells of different ranks (each once), and the ghost copies

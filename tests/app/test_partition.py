@@ -18,6 +18,10 @@ DECK = (BEAM.replace("{h: 0.1, dims: [10, 2, 2]}", "{h: 0.025, dims: [40, 8, 8]}
           "[0.55, -0.1, 0.3]]}\n")
 
 
+CUT_BALANCE = re.compile(r"disconnected \d+ links; \d+ piece\(s\), \d+ vertex copies \(DOFs max/mean "
+                         r"over ranks ([\d.]+)(, re-partitioned: cells max/mean ([\d.]+))?\)")
+
+
 def displacement(path):
     with h5py.File(path, "r") as f:
         return f["steps/000001/displacement"][()]
@@ -37,8 +41,7 @@ def main():
                                ranks=ranks)
             m = re.search(rf"partition {method}, super-blocks of (\d+): cells max/mean ([\d.]+), DOFs max/mean "
                           r"([\d.]+), (\d+) links between ranks", out)
-            cut = re.search(r"disconnected \d+ links; \d+ piece\(s\), \d+ vertex copies \(DOFs max/mean over ranks "
-                            r"([\d.]+)\)", out)
+            cut = CUT_BALANCE.search(out)
             ok = rc == 0 and m and cut
             check(ok, f"{method} on {ranks} ranks runs and prints its balance before and after the cut "
                       f"({m and m.groups()}, {cut and cut.groups()}) {err[-300:]}")
@@ -54,6 +57,50 @@ def main():
             u = displacement(f"{out_dir}/r.h5")
             err_rel = np.max(np.abs(u - u1)) / np.max(np.abs(u1))
             check(err_rel < 1e-7, f"{method}, {ranks} ranks: the 1-rank displacements to {err_rel:.1e}")
+    # -hexcut_repartition: six blades near the clamped end add their copies to one side of the
+    # beam; with super-blocks of 2 cells (320 to choose from) a re-partition balancing cells and
+    # copies evens out the DOFs, and the result stays the 1-rank one (the state moves to the
+    # cells' new ranks).
+    grid = DECK.split("cuts:")[0] + "cuts:\n" + "".join(
+        f"  - blade: {{polygon: [[{x}, -0.1, 0.05], [{x}, 0.3, 0.05], [{x}, 0.3, 0.3], [{x}, -0.1, 0.3]]}}\n"
+        for x in (0.1, 0.15, 0.2, 0.25, 0.3, 0.35))
+    deck = write(d, "grid.yaml", grid + f"output: {{directory: {d}/grid1, name: r}}\n")
+    rc, out, err = run([deck])
+    check(rc == 0, f"the beam cut by six blades runs on 1 rank (rc {rc}) {err[-300:]}")
+    u1 = displacement(f"{d}/grid1/r.h5") if rc == 0 else None
+    for method in ("metis", "ptscotch", "sfc"):
+        for ranks in (2, 3):
+            balance = {}
+            for threshold in ("0", "1"):
+                out_dir = f"{d}/re{method}{ranks}_{threshold}"
+                rc, out, err = run([deck, "-hexcut_partition", method, "-hexcut_superblock", "2",
+                                    "-hexcut_repartition", threshold, "-hexcut_output_directory", out_dir],
+                                   ranks=ranks)
+                cut = CUT_BALANCE.search(out)
+                ok = rc == 0 and cut and bool(cut.group(2)) == (threshold == "1")
+                check(ok, f"{method}, {ranks} ranks, -hexcut_repartition {threshold}: runs, re-partitions "
+                          f"only when asked ({cut and cut.groups()}) {err[-300:]}")
+                if not ok or u1 is None:
+                    continue
+                balance[threshold] = float(cut.group(1))
+                if cut.group(3):
+                    # The cells stay balanced too (they carry the fine operator's work).
+                    check(float(cut.group(3)) <= 1.1, f"{method}, {ranks} ranks: cells max/mean after "
+                                                      f"re-partitioning {cut.group(3)}")
+                u = displacement(f"{out_dir}/r.h5")
+                err_rel = np.max(np.abs(u - u1)) / np.max(np.abs(u1))
+                check(err_rel < 1e-7, f"{method}, {ranks} ranks, -hexcut_repartition {threshold}: the 1-rank "
+                                      f"displacements to {err_rel:.1e}")
+            if len(balance) == 2:
+                print(f"  {method} {ranks} ranks: DOFs max/mean after the cut {balance['0']} -> {balance['1']}")
+                # METIS balances cells and copies as two constraints; PT-Scotch and the curve
+                # take their sum as one weight, which balances the DOFs less well (1.05-1.06).
+                check(balance["1"] < balance["0"] and (method != "metis" or balance["1"] <= 1.03),
+                      f"{method}, {ranks} ranks: re-partitioning improves the DOF balance "
+                      f"({balance['0']} -> {balance['1']})")
+    rc, out, err = run([deck, "--check", "-hexcut_repartition", "0.5"])
+    check(rc == 2 and "-hexcut_repartition must be 0 (never) or a DOF imbalance max/mean >= 1" in err,
+          f"-hexcut_repartition 0.5 is exit 2 (rc {rc}) {err[-300:]}")
     # More ranks than super-blocks: an input error, once, naming how many ranks would do.
     two_cells = (BEAM.replace("{h: 0.1, dims: [10, 2, 2]}", "{h: 0.1, dims: [2, 1, 1]}")
                  .replace("max: [1.0, 0.2, 0.2]", "max: [0.2, 0.1, 0.1]").replace("point: [1.0, 0, 0]", "point: [0.2, 0, 0]"))
