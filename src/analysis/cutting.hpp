@@ -50,7 +50,8 @@ class Cutter {
 PetscErrorCode deformed_cell_centres(MPI_Comm comm, const Model& model, Vec u,
                                      std::vector<Eigen::Vector3d>* centres);
 
-/// Rebuilds the model's topology after its links changed (the cells keep their ranks)
+/// Rebuilds the model's topology after its links changed (the cells keep their ranks unless
+/// Model::repartition_imbalance re-partitions them)
 /// and carries the state over: every new vertex copy takes u, v, a of the old copy it
 /// came from. Collective.
 PetscErrorCode rebuild_after_cut(MPI_Comm comm, const deck::Deck& deck, Model* model, State* state);
