@@ -22,6 +22,15 @@ void* allocate_zeroed(std::size_t count, std::size_t bytes) {
   return p;
 }
 
+/// Adds fine cell e's trilinear Galerkin product W_o^T A_e W_o (octant o) to the 24x24
+/// `parent`: from `fast` when it has it, else from the cell's matrix (`child`: 576 scratch).
+void add_trilinear_child(const assembly::CellOperator& fine, std::size_t e, int octant,
+                         const ChildGalerkin* fast, double* child, double* parent) {
+  if (fast && fast->add(e, octant, parent)) return;
+  fine.cell_matrix(e, child);
+  galerkin_accumulate(child, octant, parent);
+}
+
 }  // namespace
 
 StoredCells::StoredCells(const topology::DofLayout& layout, Precision precision)
@@ -77,9 +86,8 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
         fine.cell_matrix(e, child);
         child_interpolation(*rows, fine_corners[e].data(), parent_corners[C].data(), octant, W);
         galerkin_accumulate_general(child, W, parent);
-      } else if (!fast || !fast->add(e, octant, parent)) {
-        fine.cell_matrix(e, child);
-        galerkin_accumulate(child, octant, parent);
+      } else {
+        add_trilinear_child(fine, e, octant, fast, child, parent);
       }
     }
     if (!mask_.empty()) {
@@ -105,11 +113,7 @@ void children_products(const assembly::CellOperator& fine,
     for (auto k = groups.offset[G]; k < groups.offset[G + 1]; ++k) {
       const auto e = std::size_t(groups.child[k]);
       const auto& p = fine_position[e];
-      const int octant = element::parity_octant(p[0], p[1], p[2]);
-      if (!fast || !fast->add(e, octant, parent)) {
-        fine.cell_matrix(e, child);
-        galerkin_accumulate(child, octant, parent);
-      }
+      add_trilinear_child(fine, e, element::parity_octant(p[0], p[1], p[2]), fast, child, parent);
     }
     pack_symmetric(parent, packed + kPackedSize * G);
   }
