@@ -90,6 +90,7 @@ OptionSetup setup_options(const deck::Deck& deck) {
   throw_on_petsc_error(solve::insert_deck_options(deck.solver));
   o.user_options = options_in_database();
   o.hexcut = read_hexcut_options();
+  output::set_collective_buffer(o.hexcut.io_buffer_mib << 20);
   return o;
 }
 

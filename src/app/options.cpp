@@ -18,12 +18,11 @@
 namespace hexcut::app {
 namespace {
 
-const std::vector<std::string> kKnown = {"-hexcut_composite_carry",  "-hexcut_composite_midpoint",
-                                         "-hexcut_composite_rotate", "-hexcut_max_steps",
-                                         "-hexcut_memory_available", "-hexcut_output_directory",
-                                         "-hexcut_partition",        "-hexcut_refine",
-                                         "-hexcut_repartition",      "-hexcut_residual_history",
-                                         "-hexcut_superblock"};
+const std::vector<std::string> kKnown = {
+    "-hexcut_composite_carry",  "-hexcut_composite_midpoint", "-hexcut_composite_rotate",
+    "-hexcut_io_buffer",        "-hexcut_max_steps",          "-hexcut_memory_available",
+    "-hexcut_output_directory", "-hexcut_partition",          "-hexcut_refine",
+    "-hexcut_repartition",      "-hexcut_residual_history",   "-hexcut_superblock"};
 
 std::string lower(std::string s) {
   for (auto& ch : s) ch = char(std::tolower(static_cast<unsigned char>(ch)));
@@ -135,6 +134,17 @@ HexcutOptions read_hexcut_options() {
           "got '" +
           value + "'");
     o.repartition = v;
+  }
+  if (option_string("-hexcut_io_buffer", &value)) {
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || errno == ERANGE || v < 0 || v > 4096)
+      throw InputError(
+          "-hexcut_io_buffer must be an integer number of MiB from 0 (the MPI library's "
+          "default) to 4096, got '" +
+          value + "'");
+    o.io_buffer_mib = v;
   }
   if (option_string("-hexcut_output_directory", &value)) {
     if (value.empty()) throw InputError("-hexcut_output_directory needs a directory");

@@ -27,6 +27,9 @@ struct HexcutOptions {
   // -hexcut_repartition X: after a cut, re-partition when the DOFs' max/mean over ranks
   // exceeds X (>= 1; 0: never).
   double repartition = 0;
+  // -hexcut_io_buffer MiB: the MPI-IO collective buffer of the result files (0: the MPI
+  // library's own default and hints).
+  std::int64_t io_buffer_mib = 4;
 };
 
 /// Reads and validates every -hexcut_* option in the options database. Throws

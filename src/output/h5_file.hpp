@@ -43,6 +43,13 @@ class H5Handle {
   Closer closer_ = nullptr;
 };
 
+/// The MPI-IO collective buffer of every file H5File opens from now on [bytes] (the
+/// "cb_buffer_size" hint, honoured by Open MPI's OMPIO and by ROMIO); 0 leaves it to the MPI
+/// library (OMPIO: 32 MiB per aggregator, held while the file is open, so it is part of an
+/// aggregator rank's peak memory; doc/benchmarks.md, "Memory per rank"). Process-wide, like
+/// ROMIO_HINTS: the job sets it once from -hexcut_io_buffer before the first file opens.
+void set_collective_buffer(std::int64_t bytes);
+
 /// An HDF5 file opened with the MPI-IO driver on a communicator.
 class H5File {
  public:

@@ -84,7 +84,10 @@ def main():
                           (["-hexcut_refine", "abc"], "-hexcut_refine must be a number > 0, got 'abc'"),
                           (["-hexcut_refine", "3000"], "30000 x 6000 x 6000 cells, more than 2e9"),
                           (["-hexcut_refin", "2"], "did you mean -hexcut_refine"),
-                          (["-hexcut_output_directory", ""], "-hexcut_output_directory needs a directory")):
+                          (["-hexcut_output_directory", ""], "-hexcut_output_directory needs a directory"),
+                          (["-hexcut_io_buffer", "-1"], "-hexcut_io_buffer must be an integer number of MiB"),
+                          (["-hexcut_io_buffer", "4.5"], "from 0 (the MPI library's default) to 4096, got '4.5'"),
+                          (["-hexcut_io_buffer", "5000"], "to 4096, got '5000'")):
         target = os.path.join(d, "bad")
         rc, out, err = run([beam, *args] if args[0] == "-hexcut_output_directory" else
                            [beam, "-hexcut_output_directory", target, *args])
@@ -96,6 +99,14 @@ def main():
     m = re.search(r"peak memory ([\d.]+) MiB over all ranks, ([\d.]+) MiB on the largest rank", out)
     check(rc == 0 and m and 0 < float(m.group(2)) <= float(m.group(1)),
           f"2 ranks report the largest rank's peak memory ({m and m.groups()}) {err[-300:]}")
+    # -hexcut_io_buffer (the MPI-IO collective buffer) changes memory, never the file's numbers:
+    # 0 (the MPI library's default) and 1 MiB write what the default 4 MiB wrote.
+    for mib in ("0", "1"):
+        other = os.path.join(d, "two_io" + mib)
+        rc, out, err = run([beam, "-hexcut_output_directory", other, "-hexcut_io_buffer", mib], ranks=2)
+        same = rc == 0 and np.array_equal(displacement(os.path.join(other, "r.h5"))[0],
+                                          displacement(os.path.join(d, "two", "r.h5"))[0])
+        check(same, f"-hexcut_io_buffer {mib} on 2 ranks writes the same displacements (rc {rc}) {err[-300:]}")
 
     # The scaling studies: gmg on the beam refined 4x (40 x 8 x 8 cells), 1 and 2 ranks.
     gmg = deck(d, "gmg", BEAM.replace("solver: {type: direct}", "solver: {type: gmg, rtol: 1.0e-8}"))
