@@ -176,11 +176,18 @@ PetscErrorCode rebuild_topology(MPI_Comm comm, const deck::Deck& deck, Model* M)
     P.copy_rank[v] = P.cell_rank[M->copies.first_cell[v]];
   if (P.num_ranks > 1 && M->repartition_imbalance > 0) {
     // Every rank holds the same lattice and copies: the same decision and partition on all.
-    const auto s = topology::partition_stats(M->lattice, M->copies, P);
-    if (double(s.max_copies) / s.mean_copies > M->repartition_imbalance) {
-      P = topology::partition_lattice(M->lattice, M->copies, P.num_ranks, P.superblock,
-                                      M->min_superblock, M->partition_method, comm, true);
-      ++M->repartitions;
+    // The new partition is kept only if it balances the DOFs better: a partitioner balances
+    // super-blocks, and when the cut copies sit in a few of them it may do no better (then
+    // moving the state would cost time and gain nothing).
+    const double before = topology::partition_balance(P).copy_imbalance();
+    if (before > M->repartition_imbalance) {
+      auto Q = topology::partition_lattice(M->lattice, M->copies, P.num_ranks, P.superblock,
+                                           M->min_superblock, M->partition_method, comm, true);
+      const auto b = topology::partition_balance(Q);
+      if (b.copy_imbalance() < before && b.empty_ranks == 0) {
+        P = std::move(Q);
+        ++M->repartitions;
+      }
     }
   }
   PetscCall(build_distributed_data(comm, deck, rank, M));

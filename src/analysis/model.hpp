@@ -51,9 +51,11 @@ PetscErrorCode destroy_model(Model* model);
 
 /// After the lattice's links changed (a cut): rebuilds vertex copies, DOF layout, DM,
 /// reference positions, cell data and boundary data. The cells keep their ranks (their
-/// super-blocks do not move) unless the DOFs' imbalance exceeds model->repartition_imbalance
-/// (then the super-blocks are re-partitioned, balancing cells and copies, and
-/// model->repartitions grows); a new copy goes to the rank of its lowest-numbered cell.
+/// super-blocks do not move) unless the DOFs' imbalance (max/mean over ranks) exceeds
+/// model->repartition_imbalance: then the super-blocks are partitioned again, balancing cells
+/// and copies, and the new partition is kept (model->repartitions grows) only if its DOF
+/// imbalance is lower and no rank is left without cells. A new copy goes to the rank of its
+/// lowest-numbered cell.
 /// model->dm and model->coordinates must have been released (or handed over) before.
 PetscErrorCode rebuild_topology(MPI_Comm comm, const deck::Deck& deck, Model* model);
 

@@ -62,14 +62,13 @@ void print_cut_report(MPI_Comm comm, const analysis::Model& model, const analysi
   // and -hexcut_repartition then re-partitions.
   std::string balance;
   if (model.partition.num_ranks > 1) {
-    const auto s = topology::partition_stats(model.lattice, model.copies, model.partition);
+    const auto s = topology::partition_balance(model.partition);
     char buf[128];
-    std::snprintf(buf, sizeof buf, " (DOFs max/mean over ranks %.3f)",
-                  double(s.max_copies) / s.mean_copies);
+    std::snprintf(buf, sizeof buf, " (DOFs max/mean over ranks %.3f)", s.copy_imbalance());
     if (r.repartitioned)
       std::snprintf(buf, sizeof buf,
                     " (DOFs max/mean over ranks %.3f, re-partitioned: cells max/mean %.3f)",
-                    double(s.max_copies) / s.mean_copies, double(s.max_cells) / s.mean_cells);
+                    s.copy_imbalance(), s.cell_imbalance());
     balance = buf;
   }
   PetscPrintf(comm, "%s%d cut event(s) disconnected %lld links; %d piece(s), %d vertex copies%s\n",
@@ -119,8 +118,8 @@ void print_partition(MPI_Comm comm, const analysis::Model& model, const HexcutOp
   PetscPrintf(PETSC_COMM_SELF,
               "hexcut: partition %s, super-blocks of %d: cells max/mean %.3f, DOFs max/mean %.3f, "
               "%lld links between ranks, ghost DOFs %.2f%% of all (%lld on the rank with most)\n",
-              topology::method_name(o.partition), P.superblock, double(s.max_cells) / s.mean_cells,
-              double(s.max_copies) / s.mean_copies, (long long)s.cut_links,
+              topology::method_name(o.partition), P.superblock, s.cell_imbalance(),
+              s.copy_imbalance(), (long long)s.cut_links,
               100.0 * double(s.ghosts) / double(model.copies.num_copies),
               3 * (long long)s.max_ghosts);
   if (s.empty_ranks > 0)

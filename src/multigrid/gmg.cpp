@@ -244,9 +244,11 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
              "composite elements of level %d need %d hierarchy levels, but the lattice is a "
              "single cell after %d",
              first, first + 1, L);
+  // Composite runs count -gmg_levels from the composite level (analysis/simulation.cpp adds
+  // first_level to the user's figure): the message counts the same way.
   PetscCheck(opt_.hierarchy.levels == 0 || L == opt_.hierarchy.levels, comm, PETSC_ERR_USER_INPUT,
              "-gmg_levels %d: the lattice is a single cell after %d levels; ask for at most %d",
-             opt_.hierarchy.levels, L, L);
+             opt_.hierarchy.levels - first, L - first, L - first);
   // Composite runs: each fine cell's ancestor on the first level (its composite element; all
   // on this rank), and a fine cell of each such element, whose rotation is the element's.
   if (first > 0) {

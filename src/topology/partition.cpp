@@ -241,13 +241,26 @@ Partition partition_lattice(const lattice::Lattice& L, const VertexCopies& V, in
   return P;
 }
 
+PartitionBalance partition_balance(const Partition& P) {
+  PartitionBalance b;
+  const int R = P.num_ranks;
+  std::vector<std::int64_t> cells(R, 0), copies(R, 0);
+  for (int r : P.cell_rank) ++cells[r];
+  for (int r : P.copy_rank) ++copies[r];
+  b.max_cells = *std::max_element(cells.begin(), cells.end());
+  b.max_copies = *std::max_element(copies.begin(), copies.end());
+  b.empty_ranks = std::count(cells.begin(), cells.end(), std::int64_t(0));
+  b.mean_cells = double(P.cell_rank.size()) / R;
+  b.mean_copies = double(P.copy_rank.size()) / R;
+  return b;
+}
+
 PartitionStats partition_stats(const lattice::Lattice& L, const VertexCopies& V,
                                const Partition& P) {
   PartitionStats s;
+  static_cast<PartitionBalance&>(s) = partition_balance(P);
   const int R = P.num_ranks;
-  std::vector<std::int64_t> cells(R, 0), copies(R, 0), ghosts(R, 0);
-  for (int r : P.cell_rank) ++cells[r];
-  for (int r : P.copy_rank) ++copies[r];
+  std::vector<std::int64_t> ghosts(R, 0);
   for (std::int32_t c = 0; c < L.num_cells(); ++c)
     for (int d = 0; d < 3; ++d)
       if (L.linked(c, d)) {
@@ -263,13 +276,8 @@ PartitionStats partition_stats(const lattice::Lattice& L, const VertexCopies& V,
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   for (auto p : pairs) ++ghosts[p / V.num_copies];
-  s.max_cells = *std::max_element(cells.begin(), cells.end());
-  s.max_copies = *std::max_element(copies.begin(), copies.end());
   s.max_ghosts = *std::max_element(ghosts.begin(), ghosts.end());
-  s.empty_ranks = std::count(cells.begin(), cells.end(), std::int64_t(0));
   s.ghosts = std::int64_t(pairs.size());
-  s.mean_cells = double(L.num_cells()) / R;
-  s.mean_copies = double(V.num_copies) / R;
   return s;
 }
 

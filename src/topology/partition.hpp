@@ -46,14 +46,23 @@ Partition partition_lattice(const lattice::Lattice& lattice, const VertexCopies&
                             PartitionMethod method = PartitionMethod::metis,
                             MPI_Comm comm = MPI_COMM_SELF, bool balance_copies = false);
 
-/// What a partition costs: balance and communication. Cells and owned vertex copies (DOFs / 3)
-/// per rank, the face links between cells of different ranks (each once), and the ghost copies
-/// of each rank (copies at its cells' corners that another rank owns: what its halo exchange
-/// moves).
-struct PartitionStats {
-  std::int64_t max_cells = 0, max_copies = 0, cut_links = 0, ghosts = 0, max_ghosts = 0;
+/// How a partition balances the work: the most cells and owned vertex copies (DOFs / 3) on a
+/// rank against the mean, and the ranks without a cell. Counts only (O(cells + copies), no
+/// sort), for the decisions after a cut.
+struct PartitionBalance {
+  std::int64_t max_cells = 0, max_copies = 0;
   std::int64_t empty_ranks = 0;  // ranks without a cell (a body of few super-blocks)
   double mean_cells = 0, mean_copies = 0;
+  double cell_imbalance() const { return double(max_cells) / mean_cells; }  // max/mean >= 1
+  double copy_imbalance() const { return double(max_copies) / mean_copies; }
+};
+PartitionBalance partition_balance(const Partition& partition);
+
+/// What a partition costs: its balance, and its communication: the face links between cells
+/// of different ranks (each once) and the ghost copies of each rank (copies at its cells'
+/// corners that another rank owns: what its halo exchange moves).
+struct PartitionStats : PartitionBalance {
+  std::int64_t cut_links = 0, ghosts = 0, max_ghosts = 0;
 };
 PartitionStats partition_stats(const lattice::Lattice& lattice, const VertexCopies& copies,
                                const Partition& partition);

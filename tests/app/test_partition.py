@@ -98,6 +98,14 @@ def main():
                 check(balance["1"] < balance["0"] and (method != "metis" or balance["1"] <= 1.03),
                       f"{method}, {ranks} ranks: re-partitioning improves the DOF balance "
                       f"({balance['0']} -> {balance['1']})")
+    # With super-blocks of 8 cells there are only 5 to share out on 2 ranks, and no partition
+    # balances the cut's copies better than the one the cells already have: the new partition
+    # is not taken (re-partitioning would move the state and gain nothing).
+    rc, out, err = run([deck, "-hexcut_repartition", "1", "-hexcut_output_directory", f"{d}/sb8"], ranks=2)
+    cut = CUT_BALANCE.search(out)
+    check(rc == 0 and cut and float(cut.group(1)) > 1 and not cut.group(2),
+          f"super-blocks of 8, 2 ranks, -hexcut_repartition 1: the cut leaves the DOFs unbalanced and the "
+          f"partition stays ({cut and cut.groups()}) {err[-300:]}")
     rc, out, err = run([deck, "--check", "-hexcut_repartition", "0.5"])
     check(rc == 2 and "-hexcut_repartition must be 0 (never) or a DOF imbalance max/mean >= 1" in err,
           f"-hexcut_repartition 0.5 is exit 2 (rc {rc}) {err[-300:]}")

@@ -96,6 +96,18 @@ def main():
     rc, out, err = run([comp, "--check", "-gmg_interpolation", "smoothed"])
     check(rc == 2 and "not available with composite elements" in err,
           f"-gmg_interpolation smoothed with composite elements is exit 2 (rc {rc}) {err[-300:]}")
+    # Too deep a hierarchy is an input error naming the deepest possible; composite runs count
+    # -gmg_levels from the composite level, one level below the hexahedra's level 0.
+    most = {}
+    for name, p in (("hexahedra", path), ("composite", comp)):
+        rc, out, err = run([p, "--overwrite", "-gmg_levels", "30"])
+        m = re.search(r"-gmg_levels 30: the lattice is a single cell after (\d+) levels; ask for at most (\d+)",
+                      err)
+        check(rc == 2 and m and m.group(1) == m.group(2), f"{name}: -gmg_levels 30 is exit 2 and says how "
+              f"many levels there can be (rc {rc}) {err[-300:]}")
+        most[name] = int(m.group(2)) if m else -1
+    check(most["composite"] == most["hexahedra"] - 1 > 0,
+          f"composite elements of level 1 allow one level less than the hexahedra ({most})")
     # The multigrid's options under another solver are unused, and PETSc says so.
     path = deck(d, "unused", "cg-jacobi")
     rc, out, err = run([path, "-gmg_levels", "2"])

@@ -113,6 +113,17 @@ TEST(PartitionStats, CountsLinksAndGhostsOfATwoRankBar) {
   EXPECT_EQ(s.max_cells, 16);
   EXPECT_EQ(s.max_copies, 5 * 9);  // rank 0 owns the vertex planes x = 0..4
   EXPECT_DOUBLE_EQ(s.mean_copies, 9 * 9 / 2.0);
+  EXPECT_DOUBLE_EQ(s.copy_imbalance(), 45 / 40.5);
+  EXPECT_DOUBLE_EQ(s.cell_imbalance(), 1.0);
+  EXPECT_EQ(s.empty_ranks, 0);
+  // The balance alone (what the decision after a cut reads) counts the same; a third rank
+  // without cells is an empty rank and lowers the means.
+  P.num_ranks = 3;
+  const auto b = partition_balance(P);
+  EXPECT_EQ(b.max_copies, 45);
+  EXPECT_EQ(b.empty_ranks, 1);
+  EXPECT_DOUBLE_EQ(b.cell_imbalance(), 16 / (32 / 3.0));
+  P.num_ranks = 2;
   // A cut across the plane x = 4 (what a blade does) removes those links.
   for (int k = 0; k < 2; ++k)
     for (int j = 0; j < 2; ++j) L.links[L.find(3, j, k)] &= ~lattice::kLinkX;
