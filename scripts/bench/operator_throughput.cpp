@@ -77,7 +77,9 @@ int main(int argc, char** argv) {
         median_seconds(int(repeat), [&] { check_petsc(MatMult(A, x, y), "MatMult"); });
     const double t_mf =
         median_seconds(int(repeat), [&] { check_petsc(mg.apply_fine(x, y), "apply"); });
-    // Corotational: the same operator with (non-trivial) per-cell rotations.
+    // Corotational: the same operator with (non-trivial) per-cell rotations (a linear
+    // model stores none).
+    model.cells.rotation.resize(9 * model.cells.lambda.size());
     for (std::size_t e = 0; e < model.cells.lambda.size(); ++e) {
       const double c = std::cos(0.1 + 1e-6 * double(e)), s = std::sin(0.1 + 1e-6 * double(e));
       const double R[9] = {c, -s, 0, s, c, 0, 0, 0, 1};
