@@ -51,14 +51,15 @@ template <class T>
 void apply(const T* packed, const CellArrays& cells, const double* x, double* y) {
   if (cells.num_cells == 0) return;
   const auto n_cells = std::size_t(cells.num_cells), values = 3 * std::size_t(cells.num_copies);
-  const DeviceArray<T> P(packed, multigrid::kPackedSize * n_cells);
+  const DeviceArray<T> P(packed, multigrid::kPackedSize * std::size_t(cells.num_blocks));
   const DeviceArray<std::int32_t> corners(cells.corners, 8 * n_cells);
+  const DeviceArray<std::int32_t> block_of(cells.block_of, cells.block_of ? n_cells : 0);
   const DeviceArray<std::int32_t> order(cells.colour_cell,
                                         std::size_t(cells.colour_offset[cells.num_colours]));
   const DeviceArray<double> X(x, values);
   DeviceArray<double> Y(y, values);
   const backend::CellApplyAdd<multigrid::StoredCellOpsOf<T>> k{
-      {P.get()}, corners.get(), X.get(), Y.get()};
+      {P.get(), cells.block_of ? block_of.get() : nullptr}, corners.get(), X.get(), Y.get()};
   constexpr int kThreads = 128;
   for (int c = 0; c < cells.num_colours; ++c) {
     const std::int32_t n = cells.colour_offset[c + 1] - cells.colour_offset[c];

@@ -17,8 +17,9 @@ namespace hexcut::cuda {
 /// std::runtime_error with the CUDA runtime's message when a call fails.
 inline void stored_apply_add(const multigrid::StoredCells& A, const backend::CellColours& colours,
                              const double* x, double* y) {
-  const CellArrays cells{std::int64_t(A.num_cells()), A.corners(),         colours.num_colours(),
-                         colours.offset.data(),       colours.cell.data(), A.layout().num_local()};
+  const CellArrays cells{std::int64_t(A.num_cells()),  A.corners(),         colours.num_colours(),
+                         colours.offset.data(),        colours.cell.data(), A.layout().num_local(),
+                         std::int64_t(A.num_blocks()), A.block_of()};
   if (A.packed_double())
     packed_apply_add(A.packed_double(), cells, x, y);
   else

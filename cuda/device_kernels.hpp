@@ -20,11 +20,13 @@ struct CellArrays {
   const std::int32_t* colour_offset = nullptr;  // num_colours + 1
   const std::int32_t* colour_cell = nullptr;    // the cells, colour by colour
   std::int64_t num_copies = 0;                  // local copies: x, y hold 3 each
+  std::int64_t num_blocks = 0;                  // stored blocks (num_cells unless shared)
+  const std::int32_t* block_of = nullptr;       // per cell: its block; null: block e
 };
 
 /// y += A x on device 0 for packed symmetric 24x24 blocks (multigrid::kPackedSize per
-/// cell, double or float), one colour at a time; x, y host arrays, copied in and out.
-/// Throws std::runtime_error with the CUDA runtime's message when a call fails.
+/// block, double or float; cell e's is block_of[e], or e), one colour at a time; x, y host arrays,
+/// copied in and out. Throws std::runtime_error with the CUDA runtime's message when a call fails.
 void packed_apply_add(const double* packed, const CellArrays& cells, const double* x, double* y);
 void packed_apply_add(const float* packed, const CellArrays& cells, const double* x, double* y);
 

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <set>
 #include <utility>
 
@@ -369,6 +370,55 @@ PetscErrorCode Multigrid::create_vector(int l, Vec* v) const {
   return DMCreateGlobalVector(data_[l]->dm, v);
 }
 
+std::vector<std::int32_t> Multigrid::fine_block_keys(const assembly::CellData& cells) const {
+  // A fine cell's product with the trilinear weights depends on its stiffness (its kind),
+  // density (when the operator has mass) and mask only (rotations are the identity here).
+  const auto d = fine_op_->data();
+  std::map<std::pair<std::int32_t, double>, std::int32_t> id;
+  std::vector<std::int32_t> key(cells.kind.size(), -1);
+  for (std::size_t e = 0; e < key.size(); ++e) {
+    if (cells.kind[e] < 0 || (d.cell_masked && d.cell_masked[e])) continue;
+    const double rho = weights_.mass != 0.0 ? cells.rho[e] : 0.0;
+    key[e] = id.emplace(std::make_pair(cells.kind[e], rho), std::int32_t(id.size())).first->second;
+  }
+  return key;
+}
+
+std::vector<std::int32_t> Multigrid::shared_block_keys(
+    int l, const std::vector<std::int32_t>& below) const {
+  // Coarse cell C's block is sum_c W_c^T A_c W_c over its children, W_c the trilinear weights
+  // of child c's octant: it depends on the children's blocks and octants only (not on how
+  // the children are linked: their corner copies do not enter). So cells whose children all
+  // share one key k and fill the same octants share a block: key (k, octants). A cell with
+  // children on other ranks (their products arrive summed, remote_products) keeps its own.
+  const auto& fine = levels_[l - 1];
+  const auto& ch = data_[l]->children;
+  const auto& pos = data_[l - 1]->cell_pos;
+  const auto& coarse_cells = levels_[l].layout().cells;
+  std::vector<std::int32_t> total;  // children per canonical coarse cell, on every rank
+  if (levels_[l].remote_children) {
+    total.assign(std::size_t(levels_[l].graph.num_cells()), 0);
+    for (auto P : fine.parent) ++total[std::size_t(P)];
+  }
+  std::map<std::pair<std::int32_t, int>, std::int32_t> id;
+  std::vector<std::int32_t> key(coarse_cells.size(), -1);
+  for (std::size_t C = 0; C < key.size(); ++C) {
+    const auto n = ch.offset[C + 1] - ch.offset[C];
+    if (n == 0 || (!total.empty() && total[std::size_t(coarse_cells[C])] != n)) continue;
+    const std::int32_t k = below[std::size_t(ch.child[ch.offset[C]])];
+    int octants = 0;
+    bool same = k >= 0;
+    for (auto i = ch.offset[C]; i < ch.offset[C + 1] && same; ++i) {
+      const auto e = std::size_t(ch.child[i]);
+      octants |= 1 << element::parity_octant(pos[e][0], pos[e][1], pos[e][2]);
+      same = below[e] == k;
+    }
+    if (same)
+      key[C] = id.emplace(std::make_pair(k, octants), std::int32_t(id.size())).first->second;
+  }
+  return key;
+}
+
 void Multigrid::mark_dirty_fine_cells(const assembly::CellData& cells, bool full) {
   // A fine cell is dirty when its rotation moved by more than the tolerance since the
   // block of its parent was built (or on a full rebuild), or when the blocks above it
@@ -548,6 +598,13 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   // Galerkin coarse blocks, level by level, for the coarse cells with a dirty child.
   if (built_rotation_.size() != cells.rotation.size())
     built_rotation_.assign(cells.rotation.size(), 0.0);
+  // Shared blocks, decided at each full rebuild (the materials or the mask may have changed):
+  // linear runs of hexahedra with trilinear transfers, where equal children make equal blocks.
+  // (A change to rotations is a full rebuild too: the blocks are then a cell's own again.)
+  const bool share = full && opt_.shared_blocks && first == 0 && cells.identity_rotations &&
+                     opt_.interpolation == Interpolation::trilinear;
+  std::vector<std::int32_t> keys;
+  if (share) keys = fine_block_keys(cells);
   for (int l = 1; l < L; ++l) {
     if (l == assembled_from_) {
       PetscCall(build_smoothed_chain());
@@ -559,6 +616,12 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     // The interpolation to level l-1 depends on its operator: recomputed on full rebuilds
     // (kept across rotation-only updates, whose operators differ by rotations only).
     if (full && l - 1 >= first) PetscCall(build_interpolation(l - 1));
+    if (share) {
+      keys = shared_block_keys(l, keys);
+      d.stored->share(keys);
+    } else if (full && d.stored->block_of()) {
+      d.stored->share({});
+    }
     if (rotated && l <= first) {
       // Levels below the composite one are not needed; the composite blocks were rotated.
       rebuilt_[l] = l == first ? std::int64_t(d.stored->dirty().size()) : 0;
@@ -1286,7 +1349,8 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
     // What the multigrid holds for this level, summed over ranks: operator data (level 0:
     // lambda, mu, rho, the kind or own-stiffness index, a masked flag per cell and the mask
     // per DOF, and where rotations are stored (corotational runs) R and the R the coarse
-    // blocks were built from; coarse: a packed 24x24 block per cell), the inverted 3x3
+    // blocks were built from; coarse: the stored blocks, a packed 24x24 block per cell or per
+    // group of cells sharing one), the inverted 3x3
     // diagonal blocks, the interpolation to this level from the next (the scalar AIJ under
     // the MAIJ: value + column index per weight) and the work vectors (6 global, 4 on the
     // first level, whose b and x are the caller's; 2 local for Gauss-Seidel; ghosts ignored).
@@ -1298,11 +1362,14 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
       return 12.0 * info.nz_used;
     };
     const auto& d = *data_[l];
-    const double block_bytes = l > 0 && d.stored && !d.stored->packed_double() ? 4.0 : 8.0;
+    double stored[2] = {0.0, 0.0};  // bytes and blocks, summed over ranks
+    if (l > 0 && d.stored)
+      stored[0] = double(d.stored->bytes()), stored[1] = double(d.stored->num_blocks());
+    MPI_Allreduce(MPI_IN_PLACE, stored, 2, MPI_DOUBLE, MPI_SUM, comm_);
     const double rotations = fine_cells_ && !fine_cells_->rotation.empty() ? 2.0 * 9.0 * 8.0 : 0.0;
     const double op = d.A      ? aij_bytes(d.A)
                       : l == 0 ? cells * (3.0 * 8.0 + 4.0 + 1.0 + rotations) + 3.0 * copies * 8.0
-                               : cells * kPackedSize * block_bytes;
+                               : stored[0];
     double transfer = 0.0;
     if (l + 1 < num_levels()) {
       Mat scalar = d.P;
@@ -1341,6 +1408,9 @@ PetscErrorCode Multigrid::view(PetscViewer viewer) const {
                                      l == num_levels() - 1 ? "  (coarsest: assembled, Cholesky)"
                                      : data_[l]->A         ? "  (assembled: P^T A P)"
                                                            : ""));
+    if (l > 0 && d.stored && stored[1] < cells)
+      PetscCall(PetscViewerASCIIPrintf(
+          viewer, "        %.0f blocks stored for its %.0f cells (shared)\n", stored[1], cells));
     if (lev.ranks < levels_[0].ranks || lev.remote_children)
       PetscCall(PetscViewerASCIIPrintf(viewer, "        on %d of %d ranks%s\n", lev.ranks,
                                        levels_[0].ranks,

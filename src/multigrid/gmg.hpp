@@ -77,6 +77,10 @@ struct Options {
   // per application); a solid block keeps presmooth (postsmooth) everywhere.
   double degree_growth = 1.0;
   bool view = false;
+  // Coarse cells whose Galerkin blocks are equal by construction share one stored block
+  // (StoredCells::share; doc/theory.md, "Shared coarse blocks"): linear runs of hexahedra with
+  // trilinear transfers; false: a block per cell (for comparison).
+  bool shared_blocks = true;
   // Mixed precision (-gmg_precision single): the Galerkin blocks of the levels below the
   // first are stored in float (products in double); the first level, whose operator is the
   // outer CG's, stays double, so CG still converges to its rtol in double.
@@ -225,6 +229,12 @@ class Multigrid {
   PetscErrorCode cycle_level(int l, bool zero_guess);
   PetscErrorCode build_diagonal(int l);
   void mark_dirty_fine_cells(const assembly::CellData& cells, bool full);
+  // Per local cell of level l >= 1, the key of the block it shares (StoredCells::share), or
+  // -1, from `below`, the keys of level l-1 (level 0, fine_block_keys: the fine cells'
+  // material kind and density, where the cell is unmasked; the caller checks that sharing
+  // applies at all: trilinear transfers, no rotations, hexahedra).
+  std::vector<std::int32_t> shared_block_keys(int l, const std::vector<std::int32_t>& below) const;
+  std::vector<std::int32_t> fine_block_keys(const assembly::CellData& cells) const;
   PetscErrorCode build(const lattice::Lattice& lattice, const topology::VertexCopies& copies,
                        const topology::Partition& partition, const topology::DofLayout& layout,
                        DM fine_dm);

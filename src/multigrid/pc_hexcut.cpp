@@ -217,6 +217,13 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
                              nullptr));
   o.view = flag;
+  flag = o.shared_blocks ? PETSC_TRUE : PETSC_FALSE;
+  PetscCall(
+      PetscOptionsBool("-gmg_shared_blocks",
+                       "Coarse cells with equal Galerkin blocks (whole blocks of one material, "
+                       "linear runs) store one block between them",
+                       "", flag, &flag, nullptr));
+  o.shared_blocks = flag;
   PetscOptionsHeadEnd();
   d->options = o;
   PetscFunctionReturn(0);

@@ -1,6 +1,6 @@
 // The stored cells' per-cell operator (doc/theory.md, "Architecture") for the restriction
 // kernels of backend/restriction.hpp, on a plain buffer: the packed symmetric 24x24 block of
-// each cell (300 numbers).
+// each cell (300 numbers), or of each group of cells that share one.
 #pragma once
 
 #include <cstdint>
@@ -11,19 +11,25 @@
 namespace hexcut::multigrid {
 
 /// The stored cells' per-cell operator for backend/restriction.hpp's kernels; T: the
-/// stored type (double, or float for -gmg_precision single).
+/// stored type (double, or float for -gmg_precision single). `slot` (may be null: cell e's
+/// block is block e) maps each cell to its block: cells that share one (StoredCells::share)
+/// map to the same.
 template <class T>
 struct StoredCellOpsOf {
-  const T* packed;  // kPackedSize per cell
+  const T* packed;                     // kPackedSize per block
+  const std::int32_t* slot = nullptr;  // per cell: its block, or null
+  HEXCUT_HD const T* block(std::int32_t e) const {
+    return packed + kPackedSize * std::int64_t(slot ? slot[e] : e);
+  }
   HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, double* xe, double* ye) const {
-    packed_apply_add(packed + kPackedSize * std::int64_t(e), xe, ye);
+    packed_apply_add(block(e), xe, ye);
   }
   HEXCUT_HD void row_block(std::int32_t e, const std::int32_t*, int q, double* xe,
                            double* y3) const {
-    packed_row_block(packed + kPackedSize * std::int64_t(e), q, xe, y3);
+    packed_row_block(block(e), q, xe, y3);
   }
   HEXCUT_HD void diagonal_block(std::int32_t e, const std::int32_t*, int q, double* D) const {
-    const T* P = packed + kPackedSize * std::int64_t(e);
+    const T* P = block(e);
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) D[3 * i + j] = double(P[packed_index(3 * q + i, 3 * q + j)]);
   }

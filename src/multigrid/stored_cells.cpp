@@ -44,6 +44,41 @@ StoredCells::~StoredCells() {
   std::free(blocks_);
 }
 
+void StoredCells::share(const std::vector<std::int32_t>& key) {
+  assert(key.empty() || key.size() == num_cells());
+  slot_.clear();
+  source_.clear();
+  const std::size_t n = num_cells();
+  std::size_t blocks = n;
+  if (std::any_of(key.begin(), key.end(), [](std::int32_t k) { return k >= 0; })) {
+    // A block per unshared cell and one per key, in order of first appearance.
+    std::vector<std::int32_t> of_key;
+    slot_.resize(n);
+    for (std::size_t e = 0; e < n; ++e) {
+      std::int32_t s;
+      if (key[e] < 0) {
+        s = std::int32_t(source_.size());
+        source_.push_back(std::int32_t(e));
+      } else {
+        if (std::size_t(key[e]) >= of_key.size()) of_key.resize(std::size_t(key[e]) + 1, -1);
+        auto& k = of_key[std::size_t(key[e])];
+        if (k < 0) {
+          k = std::int32_t(source_.size());
+          source_.push_back(std::int32_t(e));
+        }
+        s = k;
+      }
+      slot_[e] = s;
+    }
+    blocks = source_.size();
+  }
+  std::free(blocks_);
+  blocks_ = nullptr;
+  count_ = kPackedSize * blocks;
+  holds_double_ = true;
+  if (precision_ == Precision::double_) blocks_ = allocate_zeroed(count_, sizeof(double));
+}
+
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
                                    const assembly::CellPositions& fine_position,
                                    const Children& children, const std::vector<char>& fine_dirty,
@@ -75,7 +110,10 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
   const auto& fine_corners = fine.layout().cell_corners;
   const auto& parent_corners = layout().cell_corners;
   for (std::size_t C = 0; C < n; ++C) {
-    if (!dirty_[C]) continue;
+    // A shared block is formed from its first cell, once.
+    if (!dirty_[C] || (!slot_.empty() && std::size_t(source_[slot_[C]]) != C &&
+                       dirty_[std::size_t(source_[slot_[C]])]))
+      continue;
     std::fill(parent, parent + 576, 0.0);
     if (remote_sum) unpack_symmetric(remote_sum + kPackedSize * C, parent);
     for (auto k = children.offset[C]; k < children.offset[C + 1]; ++k) {
@@ -97,9 +135,9 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
           for (int j = 0; j < 24; ++j) parent[24 * i + j] = parent[24 * j + i] = 0.0;
     }
     if (holds_double_)
-      pack_symmetric(parent, doubles() + kPackedSize * C);
+      pack_symmetric(parent, doubles() + kPackedSize * slot(C));
     else
-      pack_symmetric(parent, floats() + kPackedSize * C);
+      pack_symmetric(parent, floats() + kPackedSize * slot(C));
   }
   return rebuilt;
 }
@@ -136,12 +174,14 @@ void StoredCells::round_to_single() {
 }
 
 void StoredCells::rotate(const std::vector<double>& dR) {
+  assert(slot_.empty());
   const std::size_t n = num_cells();
   dirty_.assign(n, 1);
   for (std::size_t C = 0; C < n; ++C) rotate_block(C, &dR[9 * C]);
 }
 
 void StoredCells::rotate_block(std::size_t e, const double* R) {
+  assert(slot_.empty());
   double A[576];
   unpack_symmetric(doubles() + kPackedSize * e, A);
   element::rotate_element_matrix(R, A, A);
@@ -149,6 +189,7 @@ void StoredCells::rotate_block(std::size_t e, const double* R) {
 }
 
 void StoredCells::set_block(std::size_t e, const double* packed) {
+  assert(slot_.empty());
   std::copy_n(packed, kPackedSize, doubles() + kPackedSize * e);
 }
 
@@ -156,10 +197,10 @@ void StoredCells::apply_add(const double* x, double* y) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
-    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d}, corners(), x, y});
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d, block_of()}, corners(), x, y});
   else
-    backend::for_each(
-        n, backend::CellApplyAdd<StoredCellOpsSingle>{{packed_single()}, corners(), x, y});
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOpsSingle>{
+                             {packed_single(), block_of()}, corners(), x, y});
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
@@ -168,28 +209,29 @@ void StoredCells::apply_add_colour(const assembly::CellPositions& position, int 
   const int* p = position.empty() ? nullptr : position[0].data();
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
-    backend::for_each(n, backend::CellColourRows<StoredCellOps>{{d}, corners(), p, k, x, y});
-  else
     backend::for_each(
-        n, backend::CellColourRows<StoredCellOpsSingle>{{packed_single()}, corners(), p, k, x, y});
+        n, backend::CellColourRows<StoredCellOps>{{d, block_of()}, corners(), p, k, x, y});
+  else
+    backend::for_each(n, backend::CellColourRows<StoredCellOpsSingle>{
+                             {packed_single(), block_of()}, corners(), p, k, x, y});
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
-    backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{d}, corners(), diag});
+    backend::for_each(n, backend::CellDiagonal<StoredCellOps>{{d, block_of()}, corners(), diag});
   else
-    backend::for_each(
-        n, backend::CellDiagonal<StoredCellOpsSingle>{{packed_single()}, corners(), diag});
+    backend::for_each(n, backend::CellDiagonal<StoredCellOpsSingle>{
+                             {packed_single(), block_of()}, corners(), diag});
 }
 
 void StoredCells::cell_matrix(std::size_t e, double* A) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   if (const double* d = packed_double())
-    unpack_symmetric(d + kPackedSize * e, A);
+    unpack_symmetric(d + kPackedSize * slot(e), A);
   else
-    unpack_symmetric(packed_single() + kPackedSize * e, A);
+    unpack_symmetric(packed_single() + kPackedSize * slot(e), A);
 }
 
 }  // namespace hexcut::multigrid

@@ -54,10 +54,24 @@ class StoredCells final : public assembly::CellOperator {
   explicit StoredCells(const topology::DofLayout& layout, Precision precision = Precision::double_);
   Precision precision() const { return precision_; }
   ~StoredCells() override;
-  /// Bytes of the stored blocks.
+  /// Bytes of the stored blocks (and of the cells' block numbers when blocks are shared).
   std::size_t bytes() const {
-    return blocks_ ? count_ * (holds_double_ ? sizeof(double) : sizeof(float)) : 0;
+    return (blocks_ ? count_ * (holds_double_ ? sizeof(double) : sizeof(float)) : 0) +
+           slot_.size() * sizeof(std::int32_t);
   }
+
+  /// Blocks shared by cells whose Galerkin products are equal by construction (doc/theory.md,
+  /// "Shared coarse blocks"): `key` per local cell, -1 for a block of its own, k >= 0 for the
+  /// one block of every cell with key k (the caller guarantees their products are the same
+  /// numbers: whole blocks of 8 unmasked, unrotated children of one material, recursively).
+  /// The next galerkin() forms each shared block once, from the first cell with its key. All
+  /// keys -1 (or an empty key): a block per cell, as before any share(). Drops the blocks
+  /// (galerkin() must rebuild every cell next). Not with set_block, rotate or rotate_block.
+  void share(const std::vector<std::int32_t>& key);
+  /// How many blocks are stored (the cells unless some share), and each cell's block
+  /// (null: cell e's is block e).
+  std::size_t num_blocks() const { return count_ / kPackedSize; }
+  const std::int32_t* block_of() const { return slot_.empty() ? nullptr : slot_.data(); }
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
@@ -84,8 +98,8 @@ class StoredCells final : public assembly::CellOperator {
   const std::vector<char>& dirty() const { return dirty_; }
   /// Marks every cell in dirty() (their blocks are new to the level below).
   void mark_all_dirty() { dirty_.assign(num_cells(), 1); }
-  /// All packed blocks, kPackedSize per local cell: double (null once rounded to single)
-  /// and float (null in double; stale while the double blocks are held), for a device
+  /// All packed blocks, kPackedSize per block (num_blocks(), block_of()): double (null once rounded
+  /// to single) and float (null in double; stale while the double blocks are held), for a device
   /// backend's copy: use the double blocks when they are not null.
   const double* packed_double() const {
     return holds_double_ ? static_cast<const double*>(blocks_) : nullptr;
@@ -96,7 +110,7 @@ class StoredCells final : public assembly::CellOperator {
   /// Cell e's packed block (kPackedSize numbers), and replacing it. Double precision only
   /// (the composite level), like rotate() and rotate_block().
   const double* block(std::size_t e) const {
-    assert(packed_double());
+    assert(packed_double() && slot_.empty());
     return packed_double() + kPackedSize * e;
   }
   void set_block(std::size_t e, const double* packed);
@@ -128,7 +142,9 @@ class StoredCells final : public assembly::CellOperator {
     return static_cast<float*>(blocks_);
   }
 
-  // The packed blocks, kPackedSize per local cell (count_ numbers), as doubles or floats:
+  std::size_t slot(std::size_t e) const { return slot_.empty() ? e : std::size_t(slot_[e]); }
+
+  // The packed blocks, kPackedSize per block (count_ numbers), as doubles or floats:
   // one malloc'd buffer, so that round_to_single() rounds in place and shrinks it
   // (realloc) instead of holding both copies at the set-up's peak.
   void* blocks_ = nullptr;
@@ -136,6 +152,8 @@ class StoredCells final : public assembly::CellOperator {
   bool holds_double_ = true;
   std::vector<char> dirty_;
   std::vector<double> mask_;
+  std::vector<std::int32_t> slot_;    // per cell: its block (empty: cell e's is block e)
+  std::vector<std::int32_t> source_;  // per block: the cell whose product forms it
 };
 
 }  // namespace hexcut::multigrid

@@ -206,6 +206,80 @@ TEST(Multigrid, GalerkinBlocksEqualPtAP) {
   }
 }
 
+TEST(Multigrid, SharedBlocksAreTheBlocksEachCellWouldHave) {
+  // Linear runs: coarse cells whose children have one block key (one material and density,
+  // no prescribed DOF, recursively) and fill the same octants share one stored block, formed
+  // once. kBlock has a hole, a material jump, a clamped and a roller face, so some coarse
+  // cells share and others keep their own. Each cell's block must be exactly the one it has
+  // without sharing, for every weighting (with mass the two densities differ too), and
+  // still P^T A P. Variants: a blade between the children of the coarse cells at
+  // x = 0.2..0.4 that stops half-way through them (their children's corners are split
+  // copies; the block does not see them); super-blocks of 1 cell, so that on 2 ranks coarse
+  // cells have children on the other rank (their products arrive summed: such a cell must
+  // keep its own block).
+  const std::string blade =
+      "cuts:\n  - blade: {polygon: [[0.3, -0.1, -0.1], [0.3, 0.1, -0.1], [0.3, 0.1, 0.9], "
+      "[0.3, -0.1, 0.9]]}\n";
+  struct Case {
+    bool cut;
+    int superblock;
+  };
+  for (const auto& w : kWeights)
+    for (const Case c : {Case{false, 8}, Case{true, 8}, Case{false, 1}}) {
+      const std::string yaml = linear_block() + (c.cut ? blade : "");
+      const std::string what = std::string("w_M ") + std::to_string(w.mass) +
+                               (c.cut ? ", cut" : "") + ", super-block " +
+                               std::to_string(c.superblock);
+      // One job after the other: a job's options stay in PETSc's database, and the cut
+      // makes a new Simulation, which reads them.
+      auto make = [&](const char* options) {
+        auto j = std::make_unique<Job>(PETSC_COMM_WORLD, yaml, c.superblock, options);
+        if (c.cut) {
+          EXPECT_GT(j->cut_all(), 0);
+        }
+        j->sim->multigrid()->update(j->model.cells, w, j->model.boundary.constraints.rows);
+        return j;
+      };
+      auto shared_job = make("-gmg_levels 3");
+      auto own_job = make("-gmg_levels 3 -gmg_shared_blocks false");
+      Job& shared = *shared_job;
+      auto* mg = shared.sim->multigrid();
+      ASSERT_EQ(mg->num_levels(), 3);
+      int size;
+      MPI_Comm_size(PETSC_COMM_WORLD, &size);
+      if (c.superblock == 1 && size > 1) {
+        EXPECT_TRUE(mg->level(1).remote_children) << what;
+      }
+      for (int l = 1; l < 3; ++l) {
+        const auto& A = mg->stored_cells(l);
+        const auto& B = own_job->sim->multigrid()->stored_cells(l);
+        ASSERT_EQ(A.num_cells(), B.num_cells());
+        EXPECT_EQ(B.num_blocks(), B.num_cells());
+        double count[3] = {double(A.num_blocks()), double(A.num_cells()), 0.0}, a[576], b[576];
+        for (std::size_t e = 0; e < A.num_cells(); ++e) {
+          A.cell_matrix(e, a);
+          B.cell_matrix(e, b);
+          for (int i = 0; i < 576; ++i) count[2] = std::max(count[2], std::abs(a[i] - b[i]));
+        }
+        MPI_Allreduce(MPI_IN_PLACE, count, 2, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+        if (l == 1) {
+          EXPECT_LE(count[0], count[1] / 2) << what << ": level 1, too few cells share";
+        }
+        EXPECT_GT(count[0], 2.0) << what << ": level " << l << ", cells that differ share";
+        EXPECT_EQ(count[2], 0.0) << what << ": level " << l;
+      }
+      Mat K;
+      check_petsc(
+          assembly::create_matrix(PETSC_COMM_WORLD, shared.model.copies, shared.model.layout, &K),
+          "create");
+      HEXCUT_CALL(assembly::assemble_constrained_matrix(shared.model.dm, shared.model.layout,
+                                                        shared.model.cells, w,
+                                                        shared.model.boundary.constraints, K));
+      EXPECT_LT(galerkin_mismatch(mg, K), 1e-12) << what;
+      MatDestroy(&K);
+    }
+}
+
 TEST(Multigrid, ChildrenOnOtherRanksAndGatheredLevelsStayGalerkin) {
   // Super-blocks of 1 and 2 cells: on 2 ranks, levels 1 and 2 have coarse cells whose
   // children are on both ranks (their products are summed on the coarse cell's rank), and
@@ -830,12 +904,20 @@ SolveResult solve_static(const std::string& yaml, const char* options, bool cut 
   for (int l = 0; l < s.levels; ++l)
     s.duplication.push_back(hexcut::hierarchy::duplication(job.sim->multigrid()->level(l).graph));
   for (int l = 1; l + 1 < s.levels && job.sim->multigrid()->has_stored_cells(l); ++l) {
+    // Cell by cell (cells may share a block: StoredCells::block_of).
     const auto& A = job.sim->multigrid()->stored_cells(l);
-    const std::size_t n = multigrid::kPackedSize * A.num_cells();
     s.float_blocks.push_back(!A.packed_double());
-    s.blocks.push_back(A.packed_double()
-                           ? std::vector<double>(A.packed_double(), A.packed_double() + n)
-                           : std::vector<double>(A.packed_single(), A.packed_single() + n));
+    std::vector<double> blocks;
+    for (std::size_t e = 0; e < A.num_cells(); ++e) {
+      const std::size_t b = multigrid::kPackedSize * (A.block_of() ? A.block_of()[e] : e);
+      if (A.packed_double())
+        blocks.insert(blocks.end(), A.packed_double() + b,
+                      A.packed_double() + b + multigrid::kPackedSize);
+      else
+        blocks.insert(blocks.end(), A.packed_single() + b,
+                      A.packed_single() + b + multigrid::kPackedSize);
+    }
+    s.blocks.push_back(std::move(blocks));
   }
   return s;
 }
