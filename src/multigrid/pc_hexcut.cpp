@@ -220,8 +220,8 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   flag = o.shared_blocks ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(
       PetscOptionsBool("-gmg_shared_blocks",
-                       "Coarse cells with equal Galerkin blocks (whole blocks of one material, "
-                       "linear runs) store one block between them",
+                       "Coarse cells with equal Galerkin blocks (children of one material in the "
+                       "same octants, linear runs) store one block between them",
                        "", flag, &flag, nullptr));
   o.shared_blocks = flag;
   PetscOptionsHeadEnd();

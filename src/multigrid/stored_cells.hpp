@@ -63,7 +63,8 @@ class StoredCells final : public assembly::CellOperator {
   /// Blocks shared by cells whose Galerkin products are equal by construction (doc/theory.md,
   /// "Shared coarse blocks"): `key` per local cell, -1 for a block of its own, k >= 0 for the
   /// one block of every cell with key k (the caller guarantees their products are the same
-  /// numbers: whole blocks of 8 unmasked, unrotated children of one material, recursively).
+  /// numbers: unmasked, unrotated children of one material and density in the same octants,
+  /// recursively, none on another rank: Multigrid::shared_block_keys).
   /// The next galerkin() forms each shared block once, from the first cell with its key. All
   /// keys -1 (or an empty key): a block per cell, as before any share(). Drops the blocks
   /// (galerkin() must rebuild every cell next). Not with set_block, rotate or rotate_block.
