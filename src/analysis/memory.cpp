@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include "common/errors.hpp"
 
@@ -19,17 +20,42 @@ constexpr double kPerLatticeCell = 14.0;      // dense material grid + cell inde
 constexpr double kPerImageCell = 8.0;         // dense Young's modulus grid of an image
 constexpr double kReplicatedPerCell = 300.0;  // cells, links, vertex copies, partition
 
+/// Whether the multigrid will share its coarse Galerkin blocks (doc/theory.md, "Shared coarse
+/// blocks"; multigrid/gmg.cpp decides it the same way): linear runs of hexahedra whose cells
+/// have material kinds (no Young's modulus image), trilinear transfers, -gmg_shared_blocks
+/// not false. Reads the options database (the deck's petsc_options are in it by now).
+bool shares_coarse_blocks(const deck::Deck& deck, bool image_youngs) {
+  if (deck.analysis.formulation != deck::Analysis::Formulation::linear ||
+      deck.discretization.type != deck::Discretization::Type::hexahedra || image_youngs)
+    return false;
+  // Read as strings: an unparsable value is the multigrid's to report, later.
+  char shared[32] = "true", interpolation[32] = "trilinear";
+  PetscBool set = PETSC_FALSE;
+  if (PetscOptionsGetString(nullptr, nullptr, "-gmg_shared_blocks", shared, sizeof shared, &set) ||
+      PetscOptionsGetString(nullptr, nullptr, "-gmg_interpolation", interpolation,
+                            sizeof interpolation, &set))
+    return false;
+  PetscBool off = PETSC_FALSE;
+  for (const char* no : {"0", "false", "no", "off"}) {
+    PetscBool same = PETSC_FALSE;
+    if (PetscStrcasecmp(shared, no, &same) == 0 && same) off = PETSC_TRUE;
+  }
+  return !off && std::string(interpolation) == "trilinear";
+}
+
 /// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner),
-/// for `cells` filled cells of a lattice of `dims` cells.
+/// for `cells` filled cells of a lattice of `dims` cells; `shared`: the multigrid shares
+/// its coarse blocks.
 double solver_bytes_per_cell(const deck::Solver& s, std::int64_t cells,
-                             const std::array<int, 3>& dims) {
+                             const std::array<int, 3>& dims, bool shared) {
   switch (s.type) {
     case deck::Solver::Type::gmg:
     case deck::Solver::Type::gmg_cycles:
-      // With the 300 replicated bytes: 1614 per cell, against peaks of 1553 (466,560 cells)
-      // and 1506 (14,049,280 cells) measured on the cantilever, libraries deducted
-      // (doc/benchmarks.md, "Memory per DOF"); 1.8e3 before the output stopped being the peak.
-      return 1.3e3;
+      // With the 300 replicated bytes, peaks measured on the cantilever, libraries deducted
+      // (doc/benchmarks.md, "Memory per DOF"): blocks shared (1300 per cell) 1198 at 466,560
+      // cells and 1138 at 17,280,000; a block per coarse cell (1600) 1540 at 466,560 and
+      // 1506 at 14,049,280. 1.8e3 before the output stopped being the peak.
+      return shared ? 1.0e3 : 1.3e3;
     case deck::Solver::Type::cg_jacobi:
       return 3.7e3;
     case deck::Solver::Type::hypre:
@@ -83,7 +109,8 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
   double bytes =
       kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) * double(lattice_cells);
   if (material_cells > 0) {
-    double shared = solver_bytes_per_cell(deck.solver, material_cells, deck.lattice.dims);
+    double distributed = solver_bytes_per_cell(deck.solver, material_cells, deck.lattice.dims,
+                                               shares_coarse_blocks(deck, image_youngs));
     // Corotational dynamic runs on composite elements of level l add each element's own
     // data (a 24x24 stiffness, its Gram matrix and gradients: 5.6 kB per element, one per
     // 8^l cells) and the preimage's AIJ interpolation (~300 B per cell): measured 1.1 kB
@@ -92,9 +119,9 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
         deck.discretization.level > 0 &&
         deck.analysis.formulation == deck::Analysis::Formulation::corotational &&
         deck.analysis.type == deck::Analysis::Type::dynamic)
-      shared += 300.0 + 5600.0 / std::pow(8.0, deck.discretization.level);
+      distributed += 300.0 + 5600.0 / std::pow(8.0, deck.discretization.level);
     bytes += kReplicatedPerCell * double(material_cells) +
-             shared * double(material_cells) / double(std::max(ranks, 1));
+             distributed * double(material_cells) / double(std::max(ranks, 1));
   }
   return bytes;
 }

@@ -16,10 +16,10 @@ namespace hexcut::analysis {
 /// `material_cells` are filled, on `ranks` ranks. Every rank holds the lattice
 /// description (14 B per lattice cell, +8 B when an image sets Young's moduli, ~300 B
 /// per filled cell); the operator, vectors and solver are shared out (per filled cell:
-/// gmg 1.8 kB, cg-jacobi 3.7 kB, hypre and gamg 9.5 kB, direct 28 kB x (n/4096)^(1/4)
-/// for the fill of the Cholesky factor, n = min(cells, d^3) with d the lattice's middle
-/// side (a bar's nested dissection cuts it into cubes of its cross-section); corotational dynamic
-/// composite runs of level l
+/// gmg 1.3 kB, 1.0 kB when its coarse blocks are shared (shares_coarse_blocks), cg-jacobi 3.7 kB,
+/// hypre and gamg 9.5 kB, direct 28 kB x (n/4096)^(1/4) for the fill of the Cholesky factor, n =
+/// min(cells, d^3) with d the lattice's middle side (a bar's nested dissection cuts it into cubes
+/// of its cross-section); corotational dynamic composite runs of level l
 /// + 300 B + 5.6 kB / 8^l); 45 MB for the libraries. The figures were
 /// measured (peak resident memory of hexcut runs on solid boxes, doc/user-guide.md);
 /// they are good to about 30% for solid bodies.

@@ -108,17 +108,22 @@ def main():
         m = re.search(r"solver direct, 1 rank\(s\)\) needs about ([0-9.]+) GiB per rank", err)
         check(rc == 2 and m and abs(float(m.group(1)) / measured - 1) < 0.3,
               f"direct solver's estimate for a {dims} bar within 30% of the measured {measured} GiB: {err.strip()[-200:]}")
-    # gmg's estimate against the largest-lattice runs (doc/benchmarks.md, "Memory per DOF":
-    # the cantilever at 1.48M DOFs peaked at 734 MiB, at 42.9M DOFs at 20221 MiB): above the
-    # measured peak, so that a job the check lets through fits, and by less than 30%.
+    # gmg's estimate against the largest-lattice runs (doc/benchmarks.md, "Memory per DOF"),
+    # with the coarse blocks shared (the default: the cantilever at 1.48M DOFs peaked at
+    # 576 MiB, at 52.8M DOFs at 18790 MiB) and without (728 MiB, and 20221 MiB at 42.9M
+    # DOFs): above the measured peak, so that a job the check lets through fits, and by less
+    # than 30%.
     cantilever = os.path.join(os.environ["HEXCUT_SOURCE_DIR"], "input/examples/cantilever.yaml")
-    for refine, measured in [("4.5", 734.0 / 1024), ("14", 20221.3 / 1024)]:
+    for refine, measured, extra in [("4.5", 575.8 / 1024, []), ("15", 18789.9 / 1024, []),
+                                    ("4.5", 728.4 / 1024, ["-gmg_shared_blocks", "false"]),
+                                    ("14", 20221.3 / 1024, ["-gmg_shared_blocks", "0"])]:
         rc, out, err = run(["--check", cantilever, "-hexcut_refine", refine,
-                            "-hexcut_memory_available", f"{measured / 2:.2f}"])
+                            "-hexcut_memory_available", f"{measured / 2:.2f}", *extra])
         m = re.search(r"solver gmg, 1 rank\(s\)\) needs about ([0-9.]+) GiB per rank", err)
         check(rc == 2 and m and 1.0 <= float(m.group(1)) / measured < 1.3,
-              f"gmg's estimate for the cantilever refined {refine} ({m.group(1) if m else '?'} GiB) is 1-1.3x "
-              f"the measured {measured:.2f} GiB: {'' if m else err.strip()[-300:]}")
+              f"gmg's estimate for the cantilever refined {refine} {' '.join(extra)} "
+              f"({m.group(1) if m else '?'} GiB) is 1-1.3x the measured {measured:.2f} GiB: "
+              f"{'' if m else err.strip()[-300:]}")
     for args, message in [(["-ksp_type", "nosuchtype"], "invalid PETSc option: Unable to find requested KSP type nosuchtype"),
                           (["-ksp_type", "cg", "-ksp_rtol", "abc"], "invalid PETSc option: Input string abc has no numeric value"),
                           (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB")]:
