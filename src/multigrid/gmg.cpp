@@ -117,6 +117,14 @@ PetscErrorCode Multigrid::build(const lattice::Lattice& lattice,
     irregular_[l] = multigrid::irregular_cells(levels_[l - 1], levels_[l], irregular_[l - 1],
                                                l == 1 ? lattice.youngs : std::vector<double>{},
                                                l == 1 ? lattice.poisson : std::vector<double>{});
+  // From here on only the energy-minimizing rows read the levels' links (at every full
+  // rebuild). Otherwise they are freed: on level 0 a CSR copy of the lattice's link bits,
+  // about 26 bytes per cell that every rank holds whole.
+  if (opt_.interpolation != Interpolation::energy)
+    for (auto& lev : levels_) {
+      std::vector<std::int32_t>().swap(lev.graph.link_offset);
+      std::vector<std::int32_t>().swap(lev.graph.link_target);
+    }
   // Smoothed interpolation: the levels below the first transfer that is smoothed are assembled
   // (their operators are general sparse matrices, no longer one 24x24 block per cell).
   assembled_from_ = L;

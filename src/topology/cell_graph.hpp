@@ -18,6 +18,8 @@ struct CellGraph {
   std::vector<std::array<std::int32_t, 3>> ijk;  // per cell: position
   std::vector<std::int32_t> link_offset;         // CSR over cells (size n+1)
   std::vector<std::int32_t> link_target;         // linked face neighbours, both directions
+  // (The multigrid frees both once its hierarchy is built, unless its energy-minimizing
+  // interpolation reads them again: hierarchy levels may have empty links.)
 
   std::int32_t num_cells() const { return std::int32_t(ijk.size()); }
 };
