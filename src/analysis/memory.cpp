@@ -11,6 +11,7 @@
 #include <string>
 
 #include "common/errors.hpp"
+#include "common/petsc_check.hpp"
 
 namespace hexcut::analysis {
 namespace {
@@ -20,27 +21,29 @@ constexpr double kPerLatticeCell = 14.0;      // dense material grid + cell inde
 constexpr double kPerImageCell = 8.0;         // dense Young's modulus grid of an image
 constexpr double kReplicatedPerCell = 300.0;  // cells, links, vertex copies, partition
 
+bool has_image_youngs(const deck::Deck& deck) {
+  return std::any_of(deck.geometry.begin(), deck.geometry.end(), [](const auto& g) {
+    return g.kind == deck::GeometryStep::Kind::image_youngs;
+  });
+}
+
 /// Whether the multigrid will share its coarse Galerkin blocks (doc/theory.md, "Shared coarse
 /// blocks"; multigrid/gmg.cpp decides it the same way): linear runs of hexahedra whose cells
 /// have material kinds (no Young's modulus image), trilinear transfers, -gmg_shared_blocks
 /// not false. Reads the options database (the deck's petsc_options are in it by now).
-bool shares_coarse_blocks(const deck::Deck& deck, bool image_youngs) {
+PetscErrorCode shares_coarse_blocks(const deck::Deck& deck, bool* shared) {
+  PetscFunctionBeginUser;
+  *shared = false;
   if (deck.analysis.formulation != deck::Analysis::Formulation::linear ||
-      deck.discretization.type != deck::Discretization::Type::hexahedra || image_youngs)
-    return false;
-  // Read as strings: an unparsable value is the multigrid's to report, later.
-  char shared[32] = "true", interpolation[32] = "trilinear";
-  PetscBool set = PETSC_FALSE;
-  if (PetscOptionsGetString(nullptr, nullptr, "-gmg_shared_blocks", shared, sizeof shared, &set) ||
-      PetscOptionsGetString(nullptr, nullptr, "-gmg_interpolation", interpolation,
-                            sizeof interpolation, &set))
-    return false;
-  PetscBool off = PETSC_FALSE;
-  for (const char* no : {"0", "false", "no", "off"}) {
-    PetscBool same = PETSC_FALSE;
-    if (PetscStrcasecmp(shared, no, &same) == 0 && same) off = PETSC_TRUE;
-  }
-  return !off && std::string(interpolation) == "trilinear";
+      deck.discretization.type != deck::Discretization::Type::hexahedra || has_image_youngs(deck))
+    PetscFunctionReturn(0);
+  PetscBool on = PETSC_TRUE;
+  char interpolation[32] = "trilinear";
+  PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-gmg_shared_blocks", &on, nullptr));
+  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-gmg_interpolation", interpolation,
+                                  sizeof interpolation, nullptr));
+  *shared = on && std::string(interpolation) == "trilinear";
+  PetscFunctionReturn(0);
 }
 
 /// Distributed bytes per filled cell of the solver (operator, vectors, preconditioner),
@@ -102,15 +105,13 @@ double cgroup_room() {
 }  // namespace
 
 double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cells,
-                               std::int64_t material_cells, int ranks) {
-  bool image_youngs = false;
-  for (const auto& g : deck.geometry)
-    image_youngs |= g.kind == deck::GeometryStep::Kind::image_youngs;
+                               std::int64_t material_cells, int ranks, bool shared_blocks) {
+  const bool image_youngs = has_image_youngs(deck);
   double bytes =
       kLibraries + (kPerLatticeCell + (image_youngs ? kPerImageCell : 0.0)) * double(lattice_cells);
   if (material_cells > 0) {
-    double distributed = solver_bytes_per_cell(deck.solver, material_cells, deck.lattice.dims,
-                                               shares_coarse_blocks(deck, image_youngs));
+    double distributed =
+        solver_bytes_per_cell(deck.solver, material_cells, deck.lattice.dims, shared_blocks);
     // Corotational dynamic runs on composite elements of level l add each element's own
     // data (a 24x24 stiffness, its Gram matrix and gradients: 5.6 kB per element, one per
     // 8^l cells) and the preimage's AIJ interpolation (~300 B per cell): measured 1.1 kB
@@ -156,8 +157,10 @@ PetscErrorCode require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_
   MPI_Comm_size(node, &node_size);
   MPI_Comm_rank(node, &node_rank);
   MPI_Comm_free(&node);
+  bool shared_blocks = false;
+  PetscCall(parse_petsc_options(comm, [&] { return shares_coarse_blocks(deck, &shared_blocks); }));
   const double per_rank =
-      estimate_bytes_per_rank(deck, deck.lattice.num_cells(), material_cells, size);
+      estimate_bytes_per_rank(deck, deck.lattice.num_cells(), material_cells, size, shared_blocks);
   // Each node's first rank compares its node's need with what the node has.
   double worst[3] = {0.0, 0.0, 0.0};  // need / available, need, available
   if (node_rank == 0) {

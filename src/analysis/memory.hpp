@@ -16,7 +16,7 @@ namespace hexcut::analysis {
 /// `material_cells` are filled, on `ranks` ranks. Every rank holds the lattice
 /// description (14 B per lattice cell, +8 B when an image sets Young's moduli, ~300 B
 /// per filled cell); the operator, vectors and solver are shared out (per filled cell:
-/// gmg 1.3 kB, 1.0 kB when its coarse blocks are shared (shares_coarse_blocks), cg-jacobi 3.7 kB,
+/// gmg 1.3 kB, 1.0 kB when its coarse blocks are shared (`shared_blocks`), cg-jacobi 3.7 kB,
 /// hypre and gamg 9.5 kB, direct 28 kB x (n/4096)^(1/4) for the fill of the Cholesky factor, n =
 /// min(cells, d^3) with d the lattice's middle side (a bar's nested dissection cuts it into cubes
 /// of its cross-section); corotational dynamic composite runs of level l
@@ -24,7 +24,7 @@ namespace hexcut::analysis {
 /// measured (peak resident memory of hexcut runs on solid boxes, doc/user-guide.md);
 /// they are good to about 30% for solid bodies.
 double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cells,
-                               std::int64_t material_cells, int ranks);
+                               std::int64_t material_cells, int ranks, bool shared_blocks);
 
 /// Memory this node can give the job [bytes]: MemAvailable of /proc/meminfo, capped by
 /// the cgroup's limit (batch systems), or -hexcut_memory_available GiB when given;
@@ -32,7 +32,9 @@ double estimate_bytes_per_rank(const deck::Deck& deck, std::int64_t lattice_cell
 /// -hexcut_memory_available is not a number >= 0.
 PetscErrorCode available_bytes_on_node(double* bytes);
 
-/// Throws InputError when the ranks on some node would need more than that node has:
+/// Throws InputError when the ranks on some node would need more than that node has
+/// (whether the multigrid shares its coarse blocks read from the options database; a bad
+/// -gmg_shared_blocks value is an "invalid PETSc option"):
 /// `material_cells` < 0 checks the lattice alone (before voxelization). Collective.
 PetscErrorCode require_memory(MPI_Comm comm, const deck::Deck& deck, std::int64_t material_cells);
 

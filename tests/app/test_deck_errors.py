@@ -126,7 +126,8 @@ def main():
               f"{'' if m else err.strip()[-300:]}")
     for args, message in [(["-ksp_type", "nosuchtype"], "invalid PETSc option: Unable to find requested KSP type nosuchtype"),
                           (["-ksp_type", "cg", "-ksp_rtol", "abc"], "invalid PETSc option: Input string abc has no numeric value"),
-                          (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB")]:
+                          (["-hexcut_memory_available", "lots"], "-hexcut_memory_available must be a number of GiB"),
+                          (["-gmg_shared_blocks", "abc"], "invalid PETSc option: Unknown logical value: abc")]:
         rc, out, err = run(["--check", good, *args])
         check(rc == 2 and message in err and "PETSC ERROR" not in err,
               f"--check {' '.join(args)}: exit {rc}: {err.strip()}")
