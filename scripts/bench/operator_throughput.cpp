@@ -1,7 +1,9 @@
 // Operator throughput on one core: DOF/s of y = A x for the same cantilever system,
 //  - assembled: PETSc MatMult on the AIJ matrix (block size 3, inodes);
 //  - matrix-free: hexcut's multigrid fine operator (per-material K, no 24x24 per cell),
-//    with identity rotations (linear) and with rotations (corotational).
+//    with identity rotations (linear) and with rotations (corotational);
+//  - the multigrid's level 1 (stored Galerkin blocks), with the blocks shared by equal
+//    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false).
 // Usage: hexcut_bench_operator [-n CELLS_ACROSS (24)] [-repeat R (20)]
 // Prints a table of median times over R applications, measured side by side.
 #include <petscksp.h>
@@ -77,6 +79,36 @@ int main(int argc, char** argv) {
         median_seconds(int(repeat), [&] { check_petsc(MatMult(A, x, y), "MatMult"); });
     const double t_mf =
         median_seconds(int(repeat), [&] { check_petsc(mg.apply_fine(x, y), "apply"); });
+    // Level 1's stored cells, shared and a block per cell (two hierarchies side by side).
+    struct LevelTiming {
+      double seconds;
+      PetscInt dofs, cells, blocks;
+    };
+    const auto time_level1 = [&](multigrid::Multigrid& m) {
+      Vec x1, y1;
+      check_petsc(m.create_vector(1, &x1), "vector");
+      check_petsc(VecDuplicate(x1, &y1), "vector");
+      check_petsc(VecSet(x1, 1.0), "set");
+      LevelTiming t{};
+      t.seconds =
+          median_seconds(int(repeat), [&] { check_petsc(m.apply_level(1, x1, y1), "apply"); });
+      check_petsc(VecGetSize(x1, &t.dofs), "size");
+      t.cells = PetscInt(m.stored_cells(1).num_cells());
+      t.blocks = PetscInt(m.stored_cells(1).num_blocks());
+      check_petsc(VecDestroy(&x1), "destroy");
+      check_petsc(VecDestroy(&y1), "destroy");
+      return t;
+    };
+    const LevelTiming t_shared = time_level1(mg);
+    LevelTiming t_own{};
+    {
+      multigrid::Options own = opt;
+      own.shared_blocks = false;
+      multigrid::Multigrid mg_own(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition,
+                                  model.layout, model.dm, own);
+      mg_own.update(model.cells, w, model.boundary.constraints.rows);
+      t_own = time_level1(mg_own);
+    }
     // Corotational: the same operator with (non-trivial) per-cell rotations (a linear
     // model stores none).
     model.cells.rotation.resize(9 * model.cells.lambda.size());
@@ -105,6 +137,14 @@ int main(int argc, char** argv) {
     row("assembled AIJ MatMult", t_aij, matrix_bytes);
     row("matrix-free, identity rotations", t_mf, mf_bytes);
     row("matrix-free, with rotations", t_mf_rot, mf_rot_bytes);
+    // Level 1: MDOF/s of level 1's DOFs; bytes/DOF of its stored blocks (packed, 300 doubles).
+    const auto level_row = [&](const char* name, const LevelTiming& t) {
+      PetscPrintf(PETSC_COMM_WORLD, "%-34s %10.2f %12.2f %14.1f   (%d cells, %d blocks)\n", name,
+                  1e3 * t.seconds, 1e-6 * double(t.dofs) / t.seconds,
+                  300.0 * 8.0 * double(t.blocks) / double(t.dofs), int(t.cells), int(t.blocks));
+    };
+    level_row("level 1, shared blocks", t_shared);
+    level_row("level 1, a block per cell", t_own);
     PetscCall(PetscPrintf(PETSC_COMM_WORLD,
                           "bytes/DOF: operator storage only (matrix values+indices; matrix-free: "
                           "lambda, mu, rho, R per "

@@ -8,6 +8,8 @@
 // offset (a,b,c) in the 2x2x2 block.
 #pragma once
 
+#include <utility>
+
 #include "element/fine_cell.hpp"
 #include "element/host_device.hpp"
 #include "element/reference.hpp"
@@ -128,8 +130,11 @@ HEXCUT_HD inline void rotated_block_add(const double* G, const double* R, double
     }
 }
 
-/// Packed storage of a symmetric 24x24 matrix: the upper triangle row by row, 300
-/// numbers instead of 576 (coarse Galerkin blocks are symmetric).
+/// Packed storage of a symmetric 24x24 matrix: the upper triangle column by column (LAPACK's
+/// "upper packed" format, AP(r + c(c+1)/2) = A(r, c) for r <= c), 300 numbers instead of 576
+/// (coarse Galerkin blocks are symmetric). Column c starts at c(c+1)/2 and holds rows 0..c, so
+/// every column is contiguous and starts at row 0: the apply below runs over fixed-length,
+/// aligned-at-row-0 slices (doc/theory.md, "Kernel bodies for a CUDA backend").
 constexpr int kPackedSize = 300;
 HEXCUT_HD inline int packed_index(int r, int c) {
   if (r > c) {
@@ -137,15 +142,15 @@ HEXCUT_HD inline int packed_index(int r, int c) {
     r = c;
     c = t;
   }
-  return r * 24 - (r * (r - 1)) / 2 + (c - r);
+  return r + (c * (c + 1)) / 2;
 }
 
 // The packed blocks may be stored in float (-gmg_precision single: half the memory and
 // memory traffic of the coarse levels); T is the stored type, the arithmetic is double.
 template <class T>
 HEXCUT_HD inline void pack_symmetric(const double* A, T* P) {
-  for (int r = 0; r < 24; ++r)
-    for (int c = r; c < 24; ++c) P[packed_index(r, c)] = T(A[24 * r + c]);
+  for (int c = 0; c < 24; ++c)
+    for (int r = 0; r <= c; ++r) P[packed_index(r, c)] = T(A[24 * r + c]);
 }
 
 template <class T>
@@ -163,21 +168,40 @@ HEXCUT_HD inline void packed_row_block(const T* P, int q, const double* x24, dou
   three_rows(rows, x24, y3);
 }
 
-/// y24 += P x24 for a packed symmetric matrix: each stored entry is used twice.
+namespace detail {
+// Column C of the upper packed matrix: its rows 0..C-1 add x_C times the column to the
+// accumulators (the upper triangle) and their dot product with x to y_C (the lower
+// triangle, by symmetry), the diagonal once. C is a template argument so that the
+// lengths are constants: the loops vectorize and the accumulators stay in registers.
+template <int C, class T>
+HEXCUT_HD HEXCUT_INLINE void packed_column(const T* P, const double* x24, double* acc,
+                                           double* dot) {
+  const T* col = P + (C * (C + 1)) / 2;
+  const double xc = x24[C];
+  double d = 0.0;
+  HEXCUT_UNROLL
+  for (int r = 0; r < C; ++r) {
+    const double p = double(col[r]);
+    acc[r] += p * xc;
+    d += p * x24[r];
+  }
+  dot[C] = d + double(col[C]) * xc;
+}
+
+template <class T, int... C>
+HEXCUT_HD HEXCUT_INLINE void packed_columns(const T* P, const double* x24, double* acc, double* dot,
+                                            std::integer_sequence<int, C...>) {
+  (packed_column<C>(P, x24, acc, dot), ...);
+}
+}  // namespace detail
+
+/// y24 += P x24 for a packed symmetric matrix: each stored entry is used twice, once in
+/// the column's multiply-add (upper triangle) and once in its dot product (lower).
 template <class T>
 HEXCUT_HD inline void packed_apply_add(const T* P, const double* x24, double* y24) {
-  int k = 0;
-  for (int r = 0; r < 24; ++r) {
-    y24[r] += double(P[k]) * x24[r];
-    ++k;
-    double s = 0.0;
-    for (int c = r + 1; c < 24; ++c, ++k) {
-      const double p = double(P[k]);
-      s += p * x24[c];
-      y24[c] += p * x24[r];
-    }
-    y24[r] += s;
-  }
+  double acc[24] = {0.0}, dot[24];
+  detail::packed_columns(P, x24, acc, dot, std::make_integer_sequence<int, 24>{});
+  for (int r = 0; r < 24; ++r) y24[r] += acc[r] + dot[r];
 }
 
 /// Inverse of a 3x3 matrix (row-major); returns false when singular.

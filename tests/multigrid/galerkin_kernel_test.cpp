@@ -1,4 +1,5 @@
-// galerkin_accumulate (multigrid/kernels.hpp) against a plain W^T A W.
+// galerkin_accumulate (multigrid/kernels.hpp) against a plain W^T A W, and the packed
+// symmetric storage of the coarse blocks against the full matrix it stands for.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -106,6 +107,64 @@ TEST(GalerkinKernel, ReflectedWeights) {
       const int bits = (k & 1) + ((k >> 1) & 1) + ((k >> 2) & 1);
       EXPECT_EQ(element::child_weight(0, k, K), (K & ~k) ? 0.0 : std::ldexp(1.0, -bits));
     }
+}
+
+TEST(PackedBlocks, IndexIsABijectionOntoTheUpperTriangle) {
+  // LAPACK's upper packed order: column by column, rows 0..c of column c.
+  std::vector<int> seen(kPackedSize, 0);
+  for (int c = 0; c < 24; ++c)
+    for (int r = 0; r <= c; ++r) {
+      const int k = packed_index(r, c);
+      ASSERT_GE(k, 0);
+      ASSERT_LT(k, kPackedSize);
+      EXPECT_EQ(k, r + c * (c + 1) / 2);
+      EXPECT_EQ(packed_index(c, r), k) << "symmetric";
+      ++seen[k];
+    }
+  for (int k = 0; k < kPackedSize; ++k) EXPECT_EQ(seen[k], 1) << "entry " << k;
+}
+
+template <class T>
+void expect_packed_apply_is_the_symmetric_product(double tolerance) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    double A[576], x[24], y[24], yref[24], back[576];
+    for (int r = 0; r < 24; ++r)
+      for (int c = 0; c < 24; ++c) A[24 * r + c] = c < r ? A[24 * c + r] : U(rng);
+    T P[kPackedSize];
+    pack_symmetric(A, P);
+    unpack_symmetric(P, back);
+    // The matrix the packed numbers stand for: A rounded to T, symmetric.
+    for (int k = 0; k < 576; ++k) {
+      EXPECT_EQ(back[k], double(T(A[k])));
+      A[k] = back[k];
+    }
+    for (int i = 0; i < 24; ++i) x[i] = U(rng), y[i] = yref[i] = U(rng);  // accumulates
+    packed_apply_add(P, x, y);
+    for (int r = 0; r < 24; ++r)
+      for (int c = 0; c < 24; ++c) yref[r] += A[24 * r + c] * x[c];
+    double err = 0.0;
+    for (int i = 0; i < 24; ++i) err = std::max(err, std::abs(y[i] - yref[i]));
+    EXPECT_LT(err, tolerance) << "trial " << trial;
+    // Rows of one corner, as the Gauss-Seidel colours read them.
+    for (int q = 0; q < 8; ++q) {
+      double y3[3];
+      packed_row_block(P, q, x, y3);
+      for (int e = 0; e < 3; ++e) {
+        double s = 0.0;
+        for (int c = 0; c < 24; ++c) s += A[24 * (3 * q + e) + c] * x[c];
+        EXPECT_NEAR(y3[e], s, tolerance) << "corner " << q;
+      }
+    }
+  }
+}
+
+TEST(PackedBlocks, ApplyIsTheSymmetricProductInDoubleAndFloat) {
+  // The arithmetic is double in both: only the stored numbers differ, so the float blocks'
+  // product is that of the rounded matrix to double round-off.
+  expect_packed_apply_is_the_symmetric_product<double>(1e-14);
+  expect_packed_apply_is_the_symmetric_product<float>(1e-14);
 }
 
 }  // namespace
