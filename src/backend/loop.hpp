@@ -20,6 +20,13 @@ inline void for_each(std::int64_t n, const Kernel& k) {
   for (std::int64_t i = 0; i < n; ++i) k(std::int32_t(i));
 }
 
+/// Host backend: k(cells[i]) for i in order (a subset of the cells, e.g. those one
+/// per-cell operator serves).
+template <class Kernel>
+inline void for_each_in(const std::vector<std::int32_t>& cells, const Kernel& k) {
+  for (const std::int32_t e : cells) k(e);
+}
+
 /// Cells grouped into colours such that no two cells of one colour share a vertex copy:
 /// colour c holds cell[offset[c] .. offset[c+1]).
 struct CellColours {

@@ -99,14 +99,17 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
 }
 
 /// y24 += S x24 for a symmetric 24x24 S, as a sum of rows scaled by x (row k of S is
-/// column k): 24 independent accumulators that the compiler vectorizes.
-HEXCUT_HD inline void symmetric_apply_add(const double* S, double scale, const double* x24,
+/// column k): 24 independent accumulators that the compiler vectorizes. T: the stored type
+/// of S (double, or float for the multigrid's single-precision blocks); the arithmetic is
+/// double.
+template <class T>
+HEXCUT_HD inline void symmetric_apply_add(const T* S, double scale, const double* x24,
                                           double* y24) {
   double acc[24] = {0};
   for (int k = 0; k < 24; ++k) {
     const double xk = x24[k];
-    const double* row = S + 24 * k;
-    for (int r = 0; r < 24; ++r) acc[r] += row[r] * xk;
+    const T* row = S + 24 * k;
+    for (int r = 0; r < 24; ++r) acc[r] += double(row[r]) * xk;
   }
   for (int r = 0; r < 24; ++r) y24[r] += scale * acc[r];
 }
@@ -123,7 +126,8 @@ HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const
 
 /// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
 /// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
-HEXCUT_HD HEXCUT_INLINE void fine_cell_apply_add(const FineCell& c, const double* x24, double* y24) {
+HEXCUT_HD HEXCUT_INLINE void fine_cell_apply_add(const FineCell& c, const double* x24,
+                                                 double* y24) {
   if (c.R) {
     const double* R = c.R;
     double xl[24], yl[24] = {0};

@@ -77,6 +77,42 @@ void StoredCells::share(const std::vector<std::int32_t>& key) {
   count_ = kPackedSize * blocks;
   holds_double_ = true;
   if (precision_ == Precision::double_) blocks_ = allocate_zeroed(count_, sizeof(double));
+  refresh_unpacked_blocks();
+}
+
+void StoredCells::refresh_unpacked_blocks() {
+  std::vector<std::int32_t>().swap(unpacked_);
+  std::vector<std::int32_t>().swap(unpacked_cells_);
+  std::vector<std::int32_t>().swap(packed_cells_);
+  std::vector<double>().swap(full_double_);
+  std::vector<float>().swap(full_single_);
+  unpacked_count_ = 0;
+  if (!blocks_ || slot_.empty()) return;
+  std::vector<std::size_t> users(num_blocks(), 0);
+  for (std::int32_t b : slot_) ++users[std::size_t(b)];
+  std::vector<std::int32_t> unpacked(users.size(), -1);
+  for (std::size_t b = 0; b < users.size(); ++b)
+    if (users[b] >= kUnpackFrom) unpacked[b] = std::int32_t(unpacked_count_++);
+  if (unpacked_count_ == 0) return;
+  unpacked_ = std::move(unpacked);
+  for (std::size_t e = 0; e < slot_.size(); ++e)
+    (unpacked_[std::size_t(slot_[e])] >= 0 ? unpacked_cells_ : packed_cells_)
+        .push_back(std::int32_t(e));
+  double A[576];
+  if (holds_double_)
+    full_double_.resize(576 * unpacked_count_);
+  else
+    full_single_.resize(576 * unpacked_count_);
+  for (std::size_t b = 0; b < unpacked_.size(); ++b) {
+    const auto f = unpacked_[b];
+    if (f < 0) continue;
+    if (holds_double_) {
+      unpack_symmetric(doubles() + kPackedSize * b, &full_double_[576 * std::size_t(f)]);
+    } else {
+      unpack_symmetric(floats() + kPackedSize * b, A);  // floats, exactly
+      std::copy_n(A, 576, &full_single_[576 * std::size_t(f)]);
+    }
+  }
 }
 
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
@@ -139,6 +175,7 @@ std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,
     else
       pack_symmetric(parent, floats() + kPackedSize * slot(C));
   }
+  refresh_unpacked_blocks();
   return rebuilt;
 }
 
@@ -171,6 +208,7 @@ void StoredCells::round_to_single() {
   if (void* shrunk = std::realloc(blocks_, std::max<std::size_t>(count_, 1) * sizeof(float)))
     blocks_ = shrunk;  // else the larger buffer stays, holding the floats at its front
   holds_double_ = false;
+  refresh_unpacked_blocks();
 }
 
 void StoredCells::rotate(const std::vector<double>& dR) {
@@ -196,6 +234,25 @@ void StoredCells::set_block(std::size_t e, const double* packed) {
 void StoredCells::apply_add(const double* x, double* y) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
+  if (!unpacked_.empty()) {
+    // Cells of the unpacked blocks, then the others: each loop runs one kernel body.
+    if (const double* d = packed_double()) {
+      backend::for_each_in(
+          unpacked_cells_,
+          backend::CellApplyAdd<UnpackedBlockOpsOf<double>>{
+              {full_double_.data(), block_of(), unpacked_.data()}, corners(), x, y});
+      backend::for_each_in(packed_cells_,
+                           backend::CellApplyAdd<StoredCellOps>{{d, block_of()}, corners(), x, y});
+    } else {
+      backend::for_each_in(
+          unpacked_cells_,
+          backend::CellApplyAdd<UnpackedBlockOpsOf<float>>{
+              {full_single_.data(), block_of(), unpacked_.data()}, corners(), x, y});
+      backend::for_each_in(packed_cells_, backend::CellApplyAdd<StoredCellOpsSingle>{
+                                              {packed_single(), block_of()}, corners(), x, y});
+    }
+    return;
+  }
   if (const double* d = packed_double())
     backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d, block_of()}, corners(), x, y});
   else

@@ -54,10 +54,13 @@ class StoredCells final : public assembly::CellOperator {
   explicit StoredCells(const topology::DofLayout& layout, Precision precision = Precision::double_);
   Precision precision() const { return precision_; }
   ~StoredCells() override;
-  /// Bytes of the stored blocks (and of the cells' block numbers when blocks are shared).
+  /// Bytes of the stored blocks (and of the cells' block numbers and the unpacked copies
+  /// when blocks are shared).
   std::size_t bytes() const {
     return (blocks_ ? count_ * (holds_double_ ? sizeof(double) : sizeof(float)) : 0) +
-           slot_.size() * sizeof(std::int32_t);
+           (slot_.size() + unpacked_.size() + unpacked_cells_.size() + packed_cells_.size()) *
+               sizeof(std::int32_t) +
+           full_double_.size() * sizeof(double) + full_single_.size() * sizeof(float);
   }
 
   /// Blocks shared by cells whose Galerkin products are equal by construction (doc/theory.md,
@@ -73,6 +76,13 @@ class StoredCells final : public assembly::CellOperator {
   /// (null: cell e's is block e).
   std::size_t num_blocks() const { return count_ / kPackedSize; }
   const std::int32_t* block_of() const { return slot_.empty() ? nullptr : slot_.data(); }
+  /// How many blocks are also held unpacked for apply_add (24x24 each, in the stored type):
+  /// those that at least kUnpackFrom cells share, so the copies cost at most 576 / 32 = 18
+  /// numbers per cell; the product over an unpacked block that stays in cache is about
+  /// twice as fast as over the packed one (doc/benchmarks.md, "Coarse blocks: packed storage
+  /// and the product").
+  std::size_t num_unpacked() const { return unpacked_count_; }
+  static constexpr std::size_t kUnpackFrom = 32;
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
   /// cell matrices; `fine_position` (the children's level positions) gives each child's
@@ -144,6 +154,9 @@ class StoredCells final : public assembly::CellOperator {
   }
 
   std::size_t slot(std::size_t e) const { return slot_.empty() ? e : std::size_t(slot_[e]); }
+  /// Unpacks the blocks num_unpacked() counts into full_double_ or full_single_ (the stored
+  /// type), and frees the copies where none qualifies; after every change of the blocks.
+  void refresh_unpacked_blocks();
 
   // The packed blocks, kPackedSize per block (count_ numbers), as doubles or floats:
   // one malloc'd buffer, so that round_to_single() rounds in place and shrinks it
@@ -153,8 +166,14 @@ class StoredCells final : public assembly::CellOperator {
   bool holds_double_ = true;
   std::vector<char> dirty_;
   std::vector<double> mask_;
-  std::vector<std::int32_t> slot_;    // per cell: its block (empty: cell e's is block e)
-  std::vector<std::int32_t> source_;  // per block: the cell whose product forms it
+  std::vector<std::int32_t> slot_;      // per cell: its block (empty: cell e's is block e)
+  std::vector<std::int32_t> source_;    // per block: the cell whose product forms it
+  std::vector<std::int32_t> unpacked_;  // per block: its unpacked copy, or -1 (empty: none)
+  std::size_t unpacked_count_ = 0;
+  // With unpacked copies: the cells applied from them, and the others (packed), in order.
+  std::vector<std::int32_t> unpacked_cells_, packed_cells_;
+  std::vector<double> full_double_;  // the unpacked copies, 576 each
+  std::vector<float> full_single_;
 };
 
 }  // namespace hexcut::multigrid

@@ -33,6 +33,18 @@ std::string linear_block() {
   return yaml.replace(yaml.find("corotational"), 12, "linear");
 }
 
+/// A cube of n^3 cells clamped at the bottom, pushed sideways on top (static, linear).
+std::string cube_deck(int n) {
+  return "lattice: {h: " + std::to_string(1.0 / n) + ", dims: [" + std::to_string(n) + ", " +
+         std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
+         "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
+         "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]\n"
+         "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}}]\n"
+         "  traction: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}, value: [0.01, 0, "
+         "-0.01]}]\n"
+         "solver: {type: gmg, rtol: 1.0e-8}\n";
+}
+
 /// Random (deterministic) rotations: rotations of a smooth displacement field.
 void set_rotations(Job& job) {
   const auto& D = job.model.layout;
@@ -278,6 +290,50 @@ TEST(Multigrid, SharedBlocksAreTheBlocksEachCellWouldHave) {
       EXPECT_LT(galerkin_mismatch(mg, K), 1e-12) << what;
       MatDestroy(&K);
     }
+}
+
+TEST(Multigrid, UnpackedSharedBlocksApplyLikeThePackedOnes) {
+  // Blocks that many cells share (an uncut homogeneous cube: on level 1 all but the clamped
+  // layer share one) are applied from unpacked copies, the others from their packed
+  // storage, cell by cell; the sum must be the product of the packed blocks a block per cell
+  // gives, to round-off, in both precisions (single: the same rounded numbers), on every
+  // level.
+  for (const char* precision : {"double", "single"}) {
+    const std::string common = std::string("-gmg_levels 3 -gmg_precision ") + precision;
+    const assembly::OperatorWeights w{1.0, 0.0, true};
+    auto make = [&](const std::string& options) {
+      auto j = std::make_unique<Job>(PETSC_COMM_WORLD, cube_deck(32), 8, options.c_str());
+      j->sim->multigrid()->update(j->model.cells, w, j->model.boundary.constraints.rows);
+      return j;
+    };
+    auto shared_job = make(common);
+    auto own_job = make(common + " -gmg_shared_blocks false");
+    auto* shared = shared_job->sim->multigrid();
+    auto* own = own_job->sim->multigrid();
+    ASSERT_EQ(shared->num_levels(), 3);
+    for (int l = 1; l < 3; ++l) {
+      const auto& A = shared->stored_cells(l);
+      const auto& B = own->stored_cells(l);
+      EXPECT_EQ(B.num_unpacked(), 0u) << precision << ", level " << l;
+      if (l == 1) {
+        // The clamped bottom layer's cells keep blocks of their own (packed); the rest
+        // share one, unpacked (per rank: a rank away from the bottom has only that one).
+        double count[2] = {double(A.num_unpacked()), double(A.num_blocks())};
+        MPI_Allreduce(MPI_IN_PLACE, count, 2, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+        EXPECT_GT(count[0], 0.0) << precision << ": " << count[1] << " blocks";
+        EXPECT_LT(count[0], count[1]) << precision;
+      }
+      Vec x, ya, yb;
+      shared->create_vector(l, &x);
+      VecDuplicate(x, &ya);
+      VecDuplicate(x, &yb);
+      fill(x, 0.3 * l);
+      HEXCUT_CALL(shared->apply_level(l, x, ya));
+      HEXCUT_CALL(own->apply_level(l, x, yb));
+      EXPECT_LT(rel_diff(ya, yb), 1e-14) << precision << ", level " << l;
+      for (Vec* v : {&x, &ya, &yb}) VecDestroy(v);
+    }
+  }
 }
 
 TEST(Multigrid, ChildrenOnOtherRanksAndGatheredLevelsStayGalerkin) {
@@ -814,19 +870,9 @@ TEST(Multigrid, CoarsestSolveIsExactWhenTheCoarseLevelIsSingular) {
   for (Vec* v : {&r, &b, &x, &res}) VecDestroy(v);
 }
 
-/// GMG-CG iterations to rtol 1e-8 for a cube of n^3 cells clamped at the bottom, pushed
-/// sideways on top.
+/// GMG-CG iterations to rtol 1e-8 for cube_deck(n).
 PetscInt cube_iterations(int n, const char* extra = nullptr) {
-  const std::string yaml =
-      "lattice: {h: " + std::to_string(1.0 / n) + ", dims: [" + std::to_string(n) + ", " +
-      std::to_string(n) + ", " + std::to_string(n) + "]}\n" +
-      "materials: {m: {E: 1.0, nu: 0.3, rho: 1}}\n"
-      "geometry: [{add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}]\n"
-      "boundary:\n  fixed: [{where: {plane: {point: [0, 0, 0], normal: [0, 0, 1]}}}]\n"
-      "  traction: [{where: {plane: {point: [0, 0, 1], normal: [0, 0, 1]}}, value: [0.01, 0, "
-      "-0.01]}]\n"
-      "solver: {type: gmg, rtol: 1.0e-8}\n";
-  Job job(PETSC_COMM_WORLD, yaml, 16, extra);
+  Job job(PETSC_COMM_WORLD, cube_deck(n), 16, extra);
   job.run();
   PetscInt its;
   KSPGetIterationNumber(job.sim->ksp(), &its);
