@@ -103,8 +103,8 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
 /// of S (double, or float for the multigrid's single-precision blocks); the arithmetic is
 /// double.
 template <class T>
-HEXCUT_HD inline void symmetric_apply_add(const T* S, double scale, const double* x24,
-                                          double* y24) {
+HEXCUT_HD HEXCUT_INLINE void symmetric_apply_add(const T* S, double scale, const double* x24,
+                                                 double* y24) {
   double acc[24] = {0};
   for (int k = 0; k < 24; ++k) {
     const double xk = x24[k];
