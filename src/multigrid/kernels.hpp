@@ -134,7 +134,7 @@ HEXCUT_HD inline void rotated_block_add(const double* G, const double* R, double
 /// "upper packed" format, AP(r + c(c+1)/2) = A(r, c) for r <= c), 300 numbers instead of 576
 /// (coarse Galerkin blocks are symmetric). Column c starts at c(c+1)/2 and holds rows 0..c, so
 /// every column is contiguous and starts at row 0: the apply below runs over fixed-length,
-/// aligned-at-row-0 slices (doc/theory.md, "Kernel bodies for a CUDA backend").
+/// aligned-at-row-0 slices (doc/theory.md, "Storing and applying the coarse blocks").
 constexpr int kPackedSize = 300;
 HEXCUT_HD inline int packed_index(int r, int c) {
   if (r > c) {
