@@ -195,8 +195,9 @@ HEXCUT_HD HEXCUT_INLINE void packed_columns(const T* P, const double* x24, doubl
 }
 }  // namespace detail
 
-/// y24 += P x24 for a packed symmetric matrix: each stored entry is used twice, once in
-/// the column's multiply-add (upper triangle) and once in its dot product (lower).
+/// y24 += P x24 for a packed symmetric matrix: each off-diagonal entry is used twice, once
+/// in its column's multiply-add (upper triangle) and once in its dot product (lower); the
+/// diagonal once.
 template <class T>
 HEXCUT_HD inline void packed_apply_add(const T* P, const double* x24, double* y24) {
   double acc[24] = {0.0}, dot[24];
