@@ -3,7 +3,8 @@
 //  - matrix-free: hexcut's multigrid fine operator (per-material K, no 24x24 per cell),
 //    with identity rotations (linear) and with rotations (corotational);
 //  - the multigrid's level 1 (stored Galerkin blocks), with the blocks shared by equal
-//    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false).
+//    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false),
+//    each in double and in float (-gmg_precision single).
 // Usage: hexcut_bench_operator [-n CELLS_ACROSS (24)] [-repeat R (20)]
 // Prints a table of median times over R applications, measured side by side.
 #include <petscksp.h>
@@ -100,15 +101,20 @@ int main(int argc, char** argv) {
       return t;
     };
     const LevelTiming t_shared = time_level1(mg);
-    LevelTiming t_own{};
-    {
-      multigrid::Options own = opt;
-      own.shared_blocks = false;
-      multigrid::Multigrid mg_own(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition,
-                                  model.layout, model.dm, own);
-      mg_own.update(model.cells, w, model.boundary.constraints.rows);
-      t_own = time_level1(mg_own);
-    }
+    // The same level without sharing, and both in single precision, each in a hierarchy
+    // of its own.
+    const auto time_variant = [&](bool shared, multigrid::Precision precision) {
+      multigrid::Options o = opt;
+      o.shared_blocks = shared;
+      o.precision = precision;
+      multigrid::Multigrid m(PETSC_COMM_WORLD, model.lattice, model.copies, model.partition,
+                             model.layout, model.dm, o);
+      m.update(model.cells, w, model.boundary.constraints.rows);
+      return time_level1(m);
+    };
+    const LevelTiming t_own = time_variant(false, multigrid::Precision::double_);
+    const LevelTiming t_shared_single = time_variant(true, multigrid::Precision::single);
+    const LevelTiming t_own_single = time_variant(false, multigrid::Precision::single);
     // Corotational: the same operator with (non-trivial) per-cell rotations (a linear
     // model stores none).
     model.cells.rotation.resize(9 * model.cells.lambda.size());
@@ -137,14 +143,16 @@ int main(int argc, char** argv) {
     row("assembled AIJ MatMult", t_aij, matrix_bytes);
     row("matrix-free, identity rotations", t_mf, mf_bytes);
     row("matrix-free, with rotations", t_mf_rot, mf_rot_bytes);
-    // Level 1: MDOF/s of level 1's DOFs; bytes/DOF of its stored blocks (packed, 300 doubles).
-    const auto level_row = [&](const char* name, const LevelTiming& t) {
+    // Level 1: MDOF/s of level 1's DOFs; bytes/DOF of its packed blocks (300 numbers each).
+    const auto level_row = [&](const char* name, const LevelTiming& t, double bytes) {
       PetscPrintf(PETSC_COMM_WORLD, "%-34s %10.2f %12.2f %14.1f   (%d cells, %d blocks)\n", name,
                   1e3 * t.seconds, 1e-6 * double(t.dofs) / t.seconds,
-                  300.0 * 8.0 * double(t.blocks) / double(t.dofs), int(t.cells), int(t.blocks));
+                  300.0 * bytes * double(t.blocks) / double(t.dofs), int(t.cells), int(t.blocks));
     };
-    level_row("level 1, shared blocks", t_shared);
-    level_row("level 1, a block per cell", t_own);
+    level_row("level 1, shared blocks", t_shared, 8.0);
+    level_row("level 1, a block per cell", t_own, 8.0);
+    level_row("level 1, shared blocks, float", t_shared_single, 4.0);
+    level_row("level 1, a block per cell, float", t_own_single, 4.0);
     PetscCall(PetscPrintf(PETSC_COMM_WORLD,
                           "bytes/DOF: operator storage only (matrix values+indices; matrix-free: "
                           "lambda, mu, rho, R per "
