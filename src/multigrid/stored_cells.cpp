@@ -77,42 +77,45 @@ void StoredCells::share(const std::vector<std::int32_t>& key) {
   count_ = kPackedSize * blocks;
   holds_double_ = true;
   if (precision_ == Precision::double_) blocks_ = allocate_zeroed(count_, sizeof(double));
-  refresh_unpacked_blocks();
+  drop_unpacked_blocks();  // galerkin() forms the new blocks, and their unpacked copies
 }
 
-void StoredCells::refresh_unpacked_blocks() {
+void StoredCells::drop_unpacked_blocks() {
   std::vector<std::int32_t>().swap(unpacked_);
   std::vector<std::int32_t>().swap(unpacked_cells_);
   std::vector<std::int32_t>().swap(packed_cells_);
   std::vector<double>().swap(full_double_);
   std::vector<float>().swap(full_single_);
-  unpacked_count_ = 0;
+}
+
+void StoredCells::refresh_unpacked_blocks() {
+  drop_unpacked_blocks();
   if (!blocks_ || slot_.empty()) return;
   std::vector<std::size_t> users(num_blocks(), 0);
   for (std::int32_t b : slot_) ++users[std::size_t(b)];
   std::vector<std::int32_t> unpacked(users.size(), -1);
+  std::int32_t count = 0;
   for (std::size_t b = 0; b < users.size(); ++b)
-    if (users[b] >= kUnpackFrom) unpacked[b] = std::int32_t(unpacked_count_++);
-  if (unpacked_count_ == 0) return;
+    if (users[b] >= kUnpackFrom) unpacked[b] = count++;
+  if (count == 0) return;
   unpacked_ = std::move(unpacked);
   for (std::size_t e = 0; e < slot_.size(); ++e)
     (unpacked_[std::size_t(slot_[e])] >= 0 ? unpacked_cells_ : packed_cells_)
         .push_back(std::int32_t(e));
-  double A[576];
-  if (holds_double_)
-    full_double_.resize(576 * unpacked_count_);
-  else
-    full_single_.resize(576 * unpacked_count_);
-  for (std::size_t b = 0; b < unpacked_.size(); ++b) {
-    const auto f = unpacked_[b];
-    if (f < 0) continue;
-    if (holds_double_) {
-      unpack_symmetric(doubles() + kPackedSize * b, &full_double_[576 * std::size_t(f)]);
-    } else {
-      unpack_symmetric(floats() + kPackedSize * b, A);  // floats, exactly
-      std::copy_n(A, 576, &full_single_[576 * std::size_t(f)]);
+  // In the stored type: a float block's unpacked numbers are the same floats.
+  const auto unpack_into = [&](const auto* packed, auto& full) {
+    full.resize(576 * std::size_t(count));
+    double A[576];
+    for (std::size_t b = 0; b < unpacked_.size(); ++b) {
+      if (unpacked_[b] < 0) continue;
+      unpack_symmetric(packed + kPackedSize * b, A);
+      std::copy_n(A, 576, &full[576 * std::size_t(unpacked_[b])]);
     }
-  }
+  };
+  if (holds_double_)
+    unpack_into(doubles(), full_double_);
+  else
+    unpack_into(floats(), full_single_);
 }
 
 std::int64_t StoredCells::galerkin(const assembly::CellOperator& fine,

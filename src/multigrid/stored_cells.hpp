@@ -81,7 +81,7 @@ class StoredCells final : public assembly::CellOperator {
   /// numbers per cell; the product over an unpacked block that stays in cache is about
   /// twice as fast as over the packed one (doc/benchmarks.md, "Coarse blocks: packed storage
   /// and the product").
-  std::size_t num_unpacked() const { return unpacked_count_; }
+  std::size_t num_unpacked() const { return (full_double_.size() + full_single_.size()) / 576; }
   static constexpr std::size_t kUnpackFrom = 32;
 
   /// Rebuilds the block of every cell with a child marked in `fine_dirty` from `fine`'s
@@ -157,6 +157,8 @@ class StoredCells final : public assembly::CellOperator {
   /// Unpacks the blocks num_unpacked() counts into full_double_ or full_single_ (the stored
   /// type), and frees the copies where none qualifies; after every change of the blocks.
   void refresh_unpacked_blocks();
+  /// Frees the unpacked copies and their cell lists (the blocks are about to be re-formed).
+  void drop_unpacked_blocks();
 
   // The packed blocks, kPackedSize per block (count_ numbers), as doubles or floats:
   // one malloc'd buffer, so that round_to_single() rounds in place and shrinks it
@@ -169,7 +171,6 @@ class StoredCells final : public assembly::CellOperator {
   std::vector<std::int32_t> slot_;      // per cell: its block (empty: cell e's is block e)
   std::vector<std::int32_t> source_;    // per block: the cell whose product forms it
   std::vector<std::int32_t> unpacked_;  // per block: its unpacked copy, or -1 (empty: none)
-  std::size_t unpacked_count_ = 0;
   // With unpacked copies: the cells applied from them, and the others (packed), in order.
   std::vector<std::int32_t> unpacked_cells_, packed_cells_;
   std::vector<double> full_double_;  // the unpacked copies, 576 each
