@@ -66,6 +66,10 @@ CONFIGS = {
     # (-gmg_max_duplication: extra coarse cells per occupied position).
     "depth V": ("gmg", ["-gmg_cycle", "v", "-gmg_max_duplication", "DUP"]),
     "depth W": ("gmg", ["-gmg_cycle", "w", "-gmg_max_duplication", "DUP"]),
+    # The same rule as it was from 2026-12-03 to 2026-12-07: allowed to stop at level 1
+    # (-gmg_duplication_share 1; the default 0.1 keeps it to levels of 1/10 of the fine DOFs).
+    "depth1 V": ("gmg", ["-gmg_cycle", "v", "-gmg_max_duplication", "DUP", "-gmg_duplication_share", "1"]),
+    "depth1 W": ("gmg", ["-gmg_cycle", "w", "-gmg_max_duplication", "DUP", "-gmg_duplication_share", "1"]),
     "gamg": ("gamg", []),
     "hypre": ("hypre", []),
 }
@@ -202,7 +206,7 @@ def main():
     ap.add_argument("--max-duplication", type=float, default=0.5,
                     help="-gmg_max_duplication of the 'depth' configurations (default 0.5)")
     a = ap.parse_args()
-    for c in ("depth V", "depth W"):
+    for c in ("depth V", "depth W", "depth1 V", "depth1 W"):
         CONFIGS[c] = (CONFIGS[c][0], [str(a.max_duplication) if o == "DUP" else o for o in CONFIGS[c][1]])
     # Each multigrid configuration once per depth ("NAME L3": -gmg_levels 3); the algebraic
     # solvers once.

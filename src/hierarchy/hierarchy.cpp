@@ -109,8 +109,10 @@ std::vector<Level> build_hierarchy(topology::CellGraph fine, const topology::Ver
     c.graph = coarsen(f.graph, opt.mode, &levels.back().parent);
     if (opt.levels == 0 && enough && c.graph.num_cells() == f.graph.num_cells()) break;
     // Two levels at least: one level is a direct solve of the fine system.
+    const auto level_dofs = 3 * std::int64_t(f.copies().num_copies);
     if (opt.levels == 0 && enough && levels.size() >= 2 && opt.max_duplication >= 0 &&
-        3 * std::int64_t(f.copies().num_copies) <= opt.duplication_dofs &&
+        level_dofs <= opt.duplication_dofs &&
+        double(level_dofs) <= opt.duplication_share * 3.0 * double(copies.num_copies) &&
         duplication(c.graph) > opt.max_duplication)
       break;
     // Gathered onto fewer ranks when the level gets small (never a level below min_levels).

@@ -59,10 +59,14 @@ struct HierarchyOptions {
   int min_levels = 1;  // automatic: at least this many (a composite level l needs l + 1)
   // automatic: stop before a level whose duplication (duplication()) exceeds this: its coarse
   // cells have outgrown the pieces cuts or thin walls leave (doc/theory.md, "Coarse spaces
-  // after cuts"); never below two levels, and only when the level it stops at (the coarsest,
-  // factored) has at most duplication_dofs DOFs. < 0: no such stop.
+  // after cuts"). Only where the level it stops at (the coarsest, factored) has at most
+  // duplication_dofs DOFs and at most duplication_share times the fine level's: a factored
+  // level of 1/8 of the fine DOFs or more (any level 1) costs more than the iterations a
+  // deeper hierarchy adds (doc/benchmarks.md, "The duplication rule's share"). Never below
+  // two levels. max_duplication < 0: no such stop.
   double max_duplication = 0.5;
   std::int64_t duplication_dofs = 150000;
+  double duplication_share = 0.1;
   // A coarse level with fewer than this many cells per rank of the level above is gathered
   // onto max(1, cells / gather_cells) ranks: rank r of the level above sends its cells' parents
   // to rank r * ranks_coarse / ranks_fine. 0: never gathered. Levels below min_levels are

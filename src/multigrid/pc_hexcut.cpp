@@ -81,6 +81,16 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
                             "stops at has at most this many DOFs (it is factored)",
                             "", PetscInt(o.hierarchy.duplication_dofs), &n, &set));
   if (set) o.hierarchy.duplication_dofs = n;
+  PetscCall(PetscOptionsReal("-gmg_duplication_share",
+                             "The -gmg_max_duplication stop applies only where the level it "
+                             "stops at has at most this share of the fine level's DOFs (1: "
+                             "any level, level 1 included)",
+                             "", o.hierarchy.duplication_share, &w, &set));
+  if (set) {
+    PetscCheck(w > 0, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+               "-gmg_duplication_share must be > 0");
+    o.hierarchy.duplication_share = w;
+  }
   PetscCall(PetscOptionsInt("-gmg_gather_cells",
                             "A level with fewer than this many cells per rank is gathered onto "
                             "fewer ranks (0: never)",
