@@ -47,6 +47,7 @@ solver: {{type: {solver}, rtol: 1.0e-8, max_iterations: 2000}}
 output: {{directory: {out}, name: r, fields: [displacement]}}
 """
 BOX = "  - add: {box: {min: [0, 0, 0], max: [1, 1, 1]}}\n    material: soft"
+CYLINDER = "  - add: {cylinder: {start: [0.5, 0.5, 0], end: [0.5, 0.5, 1], radius: 0.48}}\n    material: soft"
 
 # The automatic depth before the duplication rule (its default since 2026-12-03), so that
 # these configurations keep measuring what doc/benchmarks.md recorded for them.
@@ -102,6 +103,33 @@ def blade_grid(spacing, angle, depth=0.5, n=24):
     return "cuts:\n" + "\n".join(out) + "\n"
 
 
+def radial_cuts(count, depth=0.5):
+    """`count` vertical blades from the axis of the cylinder (x = y = 0.5) out past its side,
+    from the top down to `depth`, at equal angles (offset by half a step from the lattice
+    axes): the top of the cylinder becomes wedges, thinner than any coarse cell near the
+    axis."""
+    out = []
+    for k in range(count):
+        a = 2 * math.pi * (k + 0.5) / count
+        X, Y = 0.5 + 0.6 * math.cos(a), 0.5 + 0.6 * math.sin(a)
+        pts = [f"[0.5, 0.5, {depth}]", f"[{X:.6f}, {Y:.6f}, {depth}]", f"[{X:.6f}, {Y:.6f}, 1.1]",
+               "[0.5, 0.5, 1.1]"]
+        out.append("  - blade: {polygon: [" + ", ".join(pts) + "]}")
+    return "cuts:\n" + "\n".join(out) + "\n"
+
+
+def stamps(count, radius, depth=0.5):
+    """A count x count array of cylinder blades (stamps) of `radius` pressed into the top of
+    the cube down to `depth`: plugs joined to the body only below them."""
+    out = []
+    for i in range(count):
+        for j in range(count):
+            x, y = (i + 0.5) / count, (j + 0.5) / count
+            out.append(f"  - blade: {{cylinder: {{start: [{x:.6f}, {y:.6f}, {depth}], "
+                       f"end: [{x:.6f}, {y:.6f}, 1.1], radius: {radius}}}}}")
+    return "cuts:\n" + "\n".join(out) + "\n"
+
+
 def image(work, name, solid, n):
     """An image geometry entry for a boolean n^3 array (x fastest), kept to what touches z = 0
     (every piece supported)."""
@@ -128,6 +156,11 @@ def cases(work, n):
         "aligned6": dict(geometry=BOX, cuts=blade_grid(6, 0, n=n)),
         "rotated3": dict(geometry=BOX, cuts=blade_grid(3, 20, n=n)),
         "rotated6": dict(geometry=BOX, cuts=blade_grid(6, 20, n=n)),
+        # A solid cylinder whose top half is cut into 12 wedges by radial blades; a cube with
+        # a 4 x 4 array of stamps (radius 0.09, about 2 cells at 24^3) to half its depth.
+        "cylinder": dict(geometry=CYLINDER),
+        "radial12": dict(geometry=CYLINDER, cuts=radial_cuts(12)),
+        "stamps": dict(geometry=BOX, cuts=stamps(4, 0.09)),
         "tube": dict(geometry=(
             "  - add: {cylinder: {start: [0.5, 0.5, 0], end: [0.5, 0.5, 1], radius: 0.48}}\n"
             "    material: soft\n"
