@@ -12,9 +12,13 @@ under gravity, each solved to rtol 1e-8 by
                    (-gmg_interpolation smoothed),
   smoothed2 W      the same with the transfers to levels 1 and 2 smoothed
                    (-gmg_smoothed_levels 2),
+  depth V / W      today's default depth (the duplication rule, -gmg_max_duplication from
+                   --max-duplication, its share of the fine DOFs 0.1),
+  depth1 V / W     the same rule allowed to stop at level 1 (-gmg_duplication_share 1),
   gamg, hypre      PETSc's GAMG and hypre BoomerAMG (CG, rigid-body near-null space),
 
-one run per case and configuration, side by side. Prints per case and configuration: CG
+on cubes, blade grids (aligned/rotated, every 3 or 6 cells), radial cuts into a cylinder,
+stamps, thin and porous bodies and material jumps (cases()), one run per case and configuration, side by side. Prints per case and configuration: CG
 iterations, the standalone V-cycle convergence factor (Richardson on the multigrid alone,
 geometric mean of r_k+1/r_k over cycles 3..12), set-up and solve seconds (the result file's
 solver history; set-up includes the operator's assembly, where the multigrid builds its

@@ -85,8 +85,8 @@ double duplication(const topology::CellGraph& graph);
 /// partition and DOF layout (the layout of `rank`), which must outlive the levels.
 /// The automatic depth stops at the first level with <= coarse_dofs DOFs, or when
 /// coarsening no longer reduces the cell count, or before a level whose duplication
-/// exceeds max_duplication (when >= 0; only from a level within duplication_dofs and
-/// duplication_share of the fine DOFs); it builds at least min_levels. An explicit depth
+/// exceeds max_duplication (when >= 0; only from a level with <= duplication_dofs DOFs and
+/// <= duplication_share times the fine level's); it builds at least min_levels. An explicit depth
 /// (options.levels > 0) is built unless the lattice is a single cell before it (then fewer
 /// levels are returned: the caller reports it). The depth does not depend on the number of
 /// ranks or the super-block.
