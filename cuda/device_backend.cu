@@ -1,6 +1,8 @@
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -72,7 +74,136 @@ void apply(const T* packed, const CellArrays& cells, const double* x, double* y)
   Y.copy_to_host(y);
 }
 
+/// A host array on the device, or nothing (a null device pointer) for a null host one.
+template <class T>
+std::unique_ptr<DeviceArray<T>> upload(const T* host, std::size_t n) {
+  return host ? std::make_unique<DeviceArray<T>>(host, n) : nullptr;
+}
+template <class T>
+T* device_pointer(const std::unique_ptr<DeviceArray<T>>& a) {
+  return a ? a->get() : nullptr;
+}
+
+/// The fine cells' data on the device: FineCellData with device pointers, its arrays owned.
+class DeviceFineCells {
+ public:
+  DeviceFineCells(const assembly::FineCellData& h, const FineTables& t, const CellArrays& cells)
+      : d_(h) {
+    const auto n = std::size_t(cells.num_cells), kinds = std::size_t(t.num_kinds);
+    corners_ = upload(h.corners, 8 * n);
+    kind_ = upload(h.kind, n);
+    kind_stiffness_ = upload(h.kind_stiffness, 576 * kinds);
+    own_ = upload(h.own, n);
+    own_stiffness_ = upload(h.own ? h.own_stiffness : nullptr, 576 * std::size_t(t.num_own));
+    lambda_ = upload(h.lambda, n);
+    mu_ = upload(h.mu, n);
+    rho_ = upload(h.rho, n);
+    rotation_ = upload(h.rotation, 9 * n);
+    reference_ = upload(h.reference, 1);
+    mask_ = upload(h.mask, 3 * std::size_t(cells.num_copies));
+    cell_masked_ = upload(h.mask ? h.cell_masked : nullptr, n);
+    order_ = upload(cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
+    d_.corners = device_pointer(corners_);
+    d_.kind = device_pointer(kind_);
+    d_.kind_stiffness = device_pointer(kind_stiffness_);
+    d_.own = device_pointer(own_);
+    d_.own_stiffness = device_pointer(own_stiffness_);
+    d_.lambda = device_pointer(lambda_);
+    d_.mu = device_pointer(mu_);
+    d_.rho = device_pointer(rho_);
+    d_.rotation = device_pointer(rotation_);
+    d_.reference = device_pointer(reference_);
+    d_.mask = device_pointer(mask_);
+    d_.cell_masked = device_pointer(cell_masked_);
+  }
+  /// y += A x, x and y device arrays, launched colour by colour (no synchronization).
+  void apply_add(const CellArrays& cells, const double* x, double* y) const {
+    const backend::CellApplyAdd<assembly::FineCellOps> k{{d_}, d_.corners, x, y};
+    constexpr int kThreads = 128;
+    for (int c = 0; c < cells.num_colours; ++c) {
+      const std::int32_t n = cells.colour_offset[c + 1] - cells.colour_offset[c];
+      if (n == 0) continue;
+      for_each_of_colour<<<(n + kThreads - 1) / kThreads, kThreads>>>(
+          k, order_->get() + cells.colour_offset[c], n);
+      check(cudaGetLastError(), "kernel launch");
+    }
+  }
+
+ private:
+  assembly::FineCellData d_;
+  std::unique_ptr<DeviceArray<std::int32_t>> corners_, kind_, own_, order_;
+  std::unique_ptr<DeviceArray<double>> kind_stiffness_, own_stiffness_, lambda_, mu_, rho_,
+      rotation_, mask_;
+  std::unique_ptr<DeviceArray<element::ReferenceMatrices>> reference_;
+  std::unique_ptr<DeviceArray<char>> cell_masked_;
+};
+
+__global__ void copy_kernel(const double* x, double* y, std::size_t n) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) y[i] = x[i];
+}
+
+/// The median of `repeat` timings of f() (after one warm-up) [s], with CUDA events.
+template <class F>
+double median_seconds(int repeat, const F& f) {
+  cudaEvent_t a, b;
+  check(cudaEventCreate(&a), "cudaEventCreate");
+  check(cudaEventCreate(&b), "cudaEventCreate");
+  f();
+  std::vector<double> t;
+  for (int i = 0; i < std::max(repeat, 1); ++i) {
+    check(cudaEventRecord(a), "cudaEventRecord");
+    f();
+    check(cudaEventRecord(b), "cudaEventRecord");
+    check(cudaEventSynchronize(b), "cudaEventSynchronize");
+    float ms = 0;
+    check(cudaEventElapsedTime(&ms, a, b), "cudaEventElapsedTime");
+    t.push_back(1e-3 * double(ms));
+  }
+  cudaEventDestroy(a);
+  cudaEventDestroy(b);
+  std::sort(t.begin(), t.end());
+  return t[t.size() / 2];
+}
+
 }  // namespace
+
+void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
+                    const CellArrays& cells, const double* x, double* y) {
+  if (cells.num_cells == 0) return;
+  const auto values = 3 * std::size_t(cells.num_copies);
+  const DeviceFineCells A(d, tables, cells);
+  const DeviceArray<double> X(x, values);
+  DeviceArray<double> Y(y, values);
+  A.apply_add(cells, X.get(), Y.get());
+  check(cudaDeviceSynchronize(), "kernel");
+  Y.copy_to_host(y);
+}
+
+DeviceTiming time_fine_apply(const assembly::FineCellData& d, const FineTables& tables,
+                             const CellArrays& cells, int repeat, std::size_t copy_bytes) {
+  DeviceTiming t;
+  cudaDeviceProp prop;
+  check(cudaGetDeviceProperties(&prop, 0), "cudaGetDeviceProperties");
+  t.device = prop.name;
+  const auto values = 3 * std::size_t(cells.num_copies);
+  const std::vector<double> ones(values, 1.0);
+  const DeviceFineCells A(d, tables, cells);
+  const DeviceArray<double> X(ones.data(), values);
+  DeviceArray<double> Y(ones.data(), values);
+  t.fine_apply_seconds = median_seconds(repeat, [&] { A.apply_add(cells, X.get(), Y.get()); });
+  const std::size_t n = copy_bytes / sizeof(double);
+  const DeviceArray<double> cx(n);
+  DeviceArray<double> cy(n);
+  check(cudaMemset(cx.get(), 0, n * sizeof(double)), "cudaMemset");
+  constexpr int kThreads = 256;
+  const double s = median_seconds(repeat, [&] {
+    copy_kernel<<<unsigned((n + kThreads - 1) / kThreads), kThreads>>>(cx.get(), cy.get(), n);
+    check(cudaGetLastError(), "kernel launch");
+  });
+  t.copy_bandwidth = 2.0 * double(n * sizeof(double)) / s;
+  return t;
+}
 
 int device_count(std::string* why) {
   int n = 0;

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "assembly/fine_cell_kernels.hpp"
+
 namespace hexcut::cuda {
 
 /// CUDA devices this process can use; 0 when there is none or no driver, with the
@@ -29,5 +31,30 @@ struct CellArrays {
 /// copied in and out. Throws std::runtime_error with the CUDA runtime's message when a call fails.
 void packed_apply_add(const double* packed, const CellArrays& cells, const double* x, double* y);
 void packed_apply_add(const float* packed, const CellArrays& cells, const double* x, double* y);
+
+/// Lengths of the shared tables of an assembly::FineCellData (the per-cell arrays have
+/// CellArrays::num_cells entries, the mask 3 per copy).
+struct FineTables {
+  std::int64_t num_kinds = 0;  // kind_stiffness: 576 numbers each
+  std::int64_t num_own = 0;    // own_stiffness: 576 numbers each
+};
+
+/// y += A x on device 0 for the fine cells `d` (host pointers; assembly::FineCellOps, the
+/// host backend's body), one colour of `cells` at a time; cells.num_blocks and block_of
+/// unused. x, y: host arrays, copied in and out. Throws std::runtime_error on a CUDA error.
+void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
+                    const CellArrays& cells, const double* x, double* y);
+
+/// Device timings for the benchmarks (scripts/bench/operator_throughput.cpp), everything
+/// resident on device 0: the median of `repeat` fine applications y += A x (all colours, after
+/// one warm-up) [s], and the bandwidth of a copy kernel y = x over `copy_bytes` per array
+/// [bytes/s: bytes read + written over the median time], the STREAM-like reference.
+struct DeviceTiming {
+  double fine_apply_seconds = 0;
+  double copy_bandwidth = 0;
+  std::string device;  // the device's name
+};
+DeviceTiming time_fine_apply(const assembly::FineCellData& d, const FineTables& tables,
+                             const CellArrays& cells, int repeat, std::size_t copy_bytes);
 
 }  // namespace hexcut::cuda

@@ -4,12 +4,18 @@
 //    with identity rotations (linear) and with rotations (corotational);
 //  - the multigrid's level 1 (stored Galerkin blocks), with the blocks shared by equal
 //    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false),
-//    each in double and in float (-gmg_precision single).
+//    each in double and in float (-gmg_precision single);
+//  - built with the CUDA backend (cuda/CMakeLists.txt) and a device visible: the fine operator
+//    on the device (the same FineCellOps body, colour by colour, data resident), with and
+//    without rotations, against a copy kernel's bandwidth in the same run (issue 13's
+//    "fraction of the measured bandwidth"); otherwise one line saying why not.
 // Usage: hexcut_bench_operator [-n CELLS_ACROSS (24)] [-repeat R (20)]
 // Prints a table of median times over R applications, measured side by side.
 #include <petscksp.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -21,6 +27,9 @@
 #include "common/petsc_check.hpp"
 #include "deck/deck.hpp"
 #include "multigrid/gmg.hpp"
+#ifdef HEXCUT_HAVE_CUDA
+#include "device_backend.hpp"
+#endif
 
 using namespace hexcut;
 
@@ -153,6 +162,46 @@ int main(int argc, char** argv) {
     level_row("level 1, a block per cell", t_own, 8.0);
     level_row("level 1, shared blocks, float", t_shared_single, 4.0);
     level_row("level 1, a block per cell, float", t_own_single, 4.0);
+#ifdef HEXCUT_HAVE_CUDA
+    // The device rows: the fine cells as the multigrid applies them (unmasked here), linear
+    // and with the rotations above. Traffic model for the bandwidth fraction: each DOF of x
+    // read once and of y read and written once (24 bytes per DOF), and per cell its 8
+    // corners and kind (36 bytes) and, rotated, its rotation (72 bytes): what a perfectly
+    // cached gather and scatter would move.
+    std::string why;
+    if (model.layout.num_ranks == 1 && cuda::device_count(&why) > 0) {
+      std::vector<std::array<int, 3>> position(model.layout.cells.size());
+      for (std::size_t e = 0; e < position.size(); ++e) {
+        const auto& p = model.lattice.ijk[model.layout.cells[e]];
+        position[e] = {p[0], p[1], p[2]};
+      }
+      const auto colours = backend::colour_cells(position);
+      const double cells = double(position.size());
+      for (const bool rotated : {false, true}) {
+        model.cells.identity_rotations = !rotated;
+        const assembly::FineCells fine(model.layout, model.cells, w, true);
+        cuda::FineTables tables;
+        const auto arrays = cuda::fine_cell_arrays(fine, colours, &tables);
+        const auto t =
+            cuda::time_fine_apply(fine.data(), tables, arrays, int(repeat), std::size_t(1) << 28);
+        const double bytes = 24.0 * double(N) + cells * (rotated ? 108.0 : 36.0);
+        PetscPrintf(PETSC_COMM_WORLD,
+                    "%-34s %10.3f %12.1f %14.1f   (%.0f GB/s: %.0f %% of the copy kernel's %.0f "
+                    "GB/s, %s)\n",
+                    rotated ? "device, with rotations" : "device, identity rotations",
+                    1e3 * t.fine_apply_seconds, 1e-6 * double(N) / t.fine_apply_seconds,
+                    bytes / double(N), 1e-9 * bytes / t.fine_apply_seconds,
+                    100.0 * bytes / t.fine_apply_seconds / t.copy_bandwidth,
+                    1e-9 * t.copy_bandwidth, t.device.c_str());
+      }
+      model.cells.identity_rotations = false;
+    } else {
+      PetscPrintf(PETSC_COMM_WORLD, "device rows: not measured (%s)\n",
+                  model.layout.num_ranks > 1 ? "one rank only" : why.c_str());
+    }
+#else
+    PetscPrintf(PETSC_COMM_WORLD, "device rows: not measured (built without the CUDA backend)\n");
+#endif
     PetscCall(PetscPrintf(PETSC_COMM_WORLD,
                           "bytes/DOF: operator storage only (matrix values+indices; matrix-free: "
                           "lambda, mu, rho, R per "
