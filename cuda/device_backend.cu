@@ -74,14 +74,11 @@ void apply(const T* packed, const CellArrays& cells, const double* x, double* y)
   Y.copy_to_host(y);
 }
 
-/// A host array on the device, or nothing (a null device pointer) for a null host one.
+/// `host` (n values) uploaded into `slot`; the device pointer, or null for a null `host`.
 template <class T>
-std::unique_ptr<DeviceArray<T>> upload(const T* host, std::size_t n) {
-  return host ? std::make_unique<DeviceArray<T>>(host, n) : nullptr;
-}
-template <class T>
-T* device_pointer(const std::unique_ptr<DeviceArray<T>>& a) {
-  return a ? a->get() : nullptr;
+T* upload(std::unique_ptr<DeviceArray<T>>* slot, const T* host, std::size_t n) {
+  *slot = host ? std::make_unique<DeviceArray<T>>(host, n) : nullptr;
+  return *slot ? (*slot)->get() : nullptr;
 }
 
 /// The fine cells' data on the device: FineCellData with device pointers, its arrays owned.
@@ -89,32 +86,21 @@ class DeviceFineCells {
  public:
   DeviceFineCells(const assembly::FineCellData& h, const FineTables& t, const CellArrays& cells)
       : d_(h) {
-    const auto n = std::size_t(cells.num_cells), kinds = std::size_t(t.num_kinds);
-    corners_ = upload(h.corners, 8 * n);
-    kind_ = upload(h.kind, n);
-    kind_stiffness_ = upload(h.kind_stiffness, 576 * kinds);
-    own_ = upload(h.own, n);
-    own_stiffness_ = upload(h.own ? h.own_stiffness : nullptr, 576 * std::size_t(t.num_own));
-    lambda_ = upload(h.lambda, n);
-    mu_ = upload(h.mu, n);
-    rho_ = upload(h.rho, n);
-    rotation_ = upload(h.rotation, 9 * n);
-    reference_ = upload(h.reference, 1);
-    mask_ = upload(h.mask, 3 * std::size_t(cells.num_copies));
-    cell_masked_ = upload(h.mask ? h.cell_masked : nullptr, n);
-    order_ = upload(cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
-    d_.corners = device_pointer(corners_);
-    d_.kind = device_pointer(kind_);
-    d_.kind_stiffness = device_pointer(kind_stiffness_);
-    d_.own = device_pointer(own_);
-    d_.own_stiffness = device_pointer(own_stiffness_);
-    d_.lambda = device_pointer(lambda_);
-    d_.mu = device_pointer(mu_);
-    d_.rho = device_pointer(rho_);
-    d_.rotation = device_pointer(rotation_);
-    d_.reference = device_pointer(reference_);
-    d_.mask = device_pointer(mask_);
-    d_.cell_masked = device_pointer(cell_masked_);
+    const auto n = std::size_t(cells.num_cells);
+    d_.corners = upload(&corners_, h.corners, 8 * n);
+    d_.kind = upload(&kind_, h.kind, n);
+    d_.kind_stiffness = upload(&kind_stiffness_, h.kind_stiffness, 576 * std::size_t(t.num_kinds));
+    d_.own = upload(&own_, h.own, n);
+    d_.own_stiffness =
+        upload(&own_stiffness_, h.own ? h.own_stiffness : nullptr, 576 * std::size_t(t.num_own));
+    d_.lambda = upload(&lambda_, h.lambda, n);
+    d_.mu = upload(&mu_, h.mu, n);
+    d_.rho = upload(&rho_, h.rho, n);
+    d_.rotation = upload(&rotation_, h.rotation, 9 * n);
+    d_.reference = upload(&reference_, h.reference, 1);
+    d_.mask = upload(&mask_, h.mask, 3 * std::size_t(cells.num_copies));
+    d_.cell_masked = upload(&cell_masked_, h.mask ? h.cell_masked : nullptr, n);
+    upload(&order_, cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
   }
   /// y += A x, x and y device arrays, launched colour by colour (no synchronization).
   void apply_add(const CellArrays& cells, const double* x, double* y) const {

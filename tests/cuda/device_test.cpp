@@ -23,6 +23,30 @@ const std::string kBlock =
     "analysis: {type: static}\n"
     "solver: {type: gmg}\n";
 
+/// The lattice (or level) positions of `level`'s local cells, for backend::colour_cells.
+std::vector<std::array<int, 3>> cell_positions(const hierarchy::Level& level) {
+  std::vector<std::array<int, 3>> position(level.layout().cells.size());
+  for (std::size_t e = 0; e < position.size(); ++e) {
+    const auto& p = level.graph.ijk[level.layout().cells[e]];
+    position[e] = {p[0], p[1], p[2]};
+  }
+  return position;
+}
+
+/// max |y_device - y_host| / max |y_host| for y = 0.5 + A x, x a fixed smooth field of n
+/// values, `host` and `device` each y += A x.
+template <class Host, class Device>
+double device_host_difference(std::size_t n, const Host& host, const Device& device) {
+  std::vector<double> x(n), yh(n, 0.5), yd(n, 0.5);
+  for (std::size_t i = 0; i < n; ++i) x[i] = std::sin(0.37 * double(i)) + 0.1;
+  host(x.data(), yh.data());
+  device(x.data(), yd.data());
+  double d = 0, m = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    d = std::max(d, std::abs(yh[i] - yd[i])), m = std::max(m, std::abs(yh[i]));
+  return d / m;
+}
+
 TEST(Device, StoredCellsApplyEqualsTheHost) {
   std::string why;
   if (cuda::device_count(&why) == 0)
@@ -33,24 +57,13 @@ TEST(Device, StoredCellsApplyEqualsTheHost) {
     HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
     for (int l = 1; l < mg.num_levels(); ++l) {
       const auto& A = mg.stored_cells(l);
-      const auto& lev = mg.level(l);
-      assembly::CellPositions position(lev.layout().cells.size());
-      for (std::size_t e = 0; e < position.size(); ++e) {
-        const auto& p = lev.graph.ijk[lev.layout().cells[e]];
-        position[e] = {p[0], p[1], p[2]};
-      }
-      const auto colours = backend::colour_cells(position);
-      const std::size_t n = 3 * std::size_t(lev.layout().num_local());
-      std::vector<double> x(n), host(n, 0.5), device(n, 0.5);
-      for (std::size_t i = 0; i < n; ++i) x[i] = std::sin(0.37 * double(i)) + 0.1;
-      A.apply_add(x.data(), host.data());
-      cuda::stored_apply_add(A, colours, x.data(), device.data());
-      double d = 0, m = 0;
-      for (std::size_t i = 0; i < n; ++i)
-        d = std::max(d, std::abs(host[i] - device[i])), m = std::max(m, std::abs(host[i]));
-      std::printf("%s, level %d: max |y_device - y_host| / max |y_host| = %.1e\n", options, l,
-                  d / m);
-      EXPECT_LT(d / m, 1e-12) << options << ", level " << l;
+      const auto colours = backend::colour_cells(cell_positions(mg.level(l)));
+      const double r = device_host_difference(
+          3 * std::size_t(mg.level(l).layout().num_local()),
+          [&](const double* x, double* y) { A.apply_add(x, y); },
+          [&](const double* x, double* y) { cuda::stored_apply_add(A, colours, x, y); });
+      std::printf("%s, level %d: max |y_device - y_host| / max |y_host| = %.1e\n", options, l, r);
+      EXPECT_LT(r, 1e-12) << options << ", level " << l;
     }
   }
 }
@@ -65,13 +78,7 @@ TEST(Device, FineOperatorApplyEqualsTheHost) {
     GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
   Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 2");
   const auto& layout = job.model.layout;
-  const auto& lev = job.sim->multigrid()->level(0);
-  std::vector<std::array<int, 3>> position(layout.cells.size());
-  for (std::size_t e = 0; e < position.size(); ++e) {
-    const auto& p = lev.graph.ijk[layout.cells[e]];
-    position[e] = {p[0], p[1], p[2]};
-  }
-  const auto colours = backend::colour_cells(position);
+  const auto colours = backend::colour_cells(cell_positions(job.sim->multigrid()->level(0)));
   // Every 5th cell without a kind (its stiffness from its own lambda and mu); rotations
   // about a tilted axis, different per cell.
   assembly::CellData cells = job.model.cells;
@@ -98,15 +105,11 @@ TEST(Device, FineOperatorApplyEqualsTheHost) {
     cells.rotation = c.rotated ? rotation : std::vector<double>{};
     assembly::FineCells A(layout, cells, c.w, c.cache);
     if (c.masked) A.set_mask(mask);
-    std::vector<double> x(n), host(n, 0.5), device(n, 0.5);
-    for (std::size_t i = 0; i < n; ++i) x[i] = std::sin(0.37 * double(i)) + 0.1;
-    A.apply_add(x.data(), host.data());
-    cuda::fine_apply_add(A, colours, x.data(), device.data());
-    double d = 0, m = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      d = std::max(d, std::abs(host[i] - device[i])), m = std::max(m, std::abs(host[i]));
-    std::printf("fine cells, %s: max |y_device - y_host| / max |y_host| = %.1e\n", c.name, d / m);
-    EXPECT_LT(d / m, 1e-12) << c.name;
+    const double r = device_host_difference(
+        n, [&](const double* x, double* y) { A.apply_add(x, y); },
+        [&](const double* x, double* y) { cuda::fine_apply_add(A, colours, x, y); });
+    std::printf("fine cells, %s: max |y_device - y_host| / max |y_host| = %.1e\n", c.name, r);
+    EXPECT_LT(r, 1e-12) << c.name;
   }
 }
 
