@@ -14,7 +14,6 @@
 #include <petscksp.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -170,13 +169,8 @@ int main(int argc, char** argv) {
     // cached gather and scatter would move.
     std::string why;
     if (model.layout.num_ranks == 1 && cuda::device_count(&why) > 0) {
-      std::vector<std::array<int, 3>> position(model.layout.cells.size());
-      for (std::size_t e = 0; e < position.size(); ++e) {
-        const auto& p = model.lattice.ijk[model.layout.cells[e]];
-        position[e] = {p[0], p[1], p[2]};
-      }
-      const auto colours = backend::colour_cells(position);
-      const double cells = double(position.size());
+      const auto colours = backend::colour_cells(mg.cell_positions(0));
+      const double cells = double(model.layout.cells.size());
       for (const bool rotated : {false, true}) {
         model.cells.identity_rotations = !rotated;
         const assembly::FineCells fine(model.layout, model.cells, w, true);
@@ -194,7 +188,6 @@ int main(int argc, char** argv) {
                     100.0 * bytes / t.fine_apply_seconds / t.copy_bandwidth,
                     1e-9 * t.copy_bandwidth, t.device.c_str());
       }
-      model.cells.identity_rotations = false;
     } else {
       PetscPrintf(PETSC_COMM_WORLD, "device rows: not measured (%s)\n",
                   model.layout.num_ranks > 1 ? "one rank only" : why.c_str());

@@ -477,6 +477,10 @@ const StoredCells& Multigrid::stored_cells(int l) const {
   return *data_[l]->stored;
 }
 
+const assembly::CellPositions& Multigrid::cell_positions(int l) const {
+  return data_[l]->cell_pos;
+}
+
 bool Multigrid::has_stored_cells(int l) const {
   return l >= 1 && data_[l]->stored != nullptr;
 }

@@ -205,6 +205,9 @@ class Multigrid {
   /// whether level l has them (not where it is assembled: -gmg_interpolation smoothed).
   const StoredCells& stored_cells(int l) const;
   bool has_stored_cells(int l) const;
+  /// The level position (lattice position at level 0) of each local cell of level l, in the
+  /// layout's cell order: what backend::colour_cells and apply_add_colour take.
+  const assembly::CellPositions& cell_positions(int l) const;
   /// Level l's operator applied to a level-l global vector (for tests).
   PetscErrorCode apply_level(int l, Vec x, Vec y);
   /// Interpolation from level l+1 to l (global, 3 DOFs per copy). The V-cycle uses

@@ -5,7 +5,6 @@
 // (cuda/CMakeLists.txt); skips with a message when no device is visible.
 #include <gtest/gtest.h>
 
-#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -22,16 +21,6 @@ const std::string kBlock =
     "boundary:\n  fixed:\n    - where: {plane: {point: [0, 0, 0], normal: [1, 0, 0]}}\n"
     "analysis: {type: static}\n"
     "solver: {type: gmg}\n";
-
-/// The lattice (or level) positions of `level`'s local cells, for backend::colour_cells.
-std::vector<std::array<int, 3>> cell_positions(const hierarchy::Level& level) {
-  std::vector<std::array<int, 3>> position(level.layout().cells.size());
-  for (std::size_t e = 0; e < position.size(); ++e) {
-    const auto& p = level.graph.ijk[level.layout().cells[e]];
-    position[e] = {p[0], p[1], p[2]};
-  }
-  return position;
-}
 
 /// max |y_device - y_host| / max |y_host| for y = 0.5 + A x, x a fixed smooth field of n
 /// values, `host` and `device` each y += A x.
@@ -57,7 +46,7 @@ TEST(Device, StoredCellsApplyEqualsTheHost) {
     HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
     for (int l = 1; l < mg.num_levels(); ++l) {
       const auto& A = mg.stored_cells(l);
-      const auto colours = backend::colour_cells(cell_positions(mg.level(l)));
+      const auto colours = backend::colour_cells(mg.cell_positions(l));
       const double r = device_host_difference(
           3 * std::size_t(mg.level(l).layout().num_local()),
           [&](const double* x, double* y) { A.apply_add(x, y); },
@@ -78,7 +67,7 @@ TEST(Device, FineOperatorApplyEqualsTheHost) {
     GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
   Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 2");
   const auto& layout = job.model.layout;
-  const auto colours = backend::colour_cells(cell_positions(job.sim->multigrid()->level(0)));
+  const auto colours = backend::colour_cells(job.sim->multigrid()->cell_positions(0));
   // Every 5th cell without a kind (its stiffness from its own lambda and mu); rotations
   // about a tilted axis, different per cell.
   assembly::CellData cells = job.model.cells;
