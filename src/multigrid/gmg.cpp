@@ -481,6 +481,85 @@ const assembly::CellPositions& Multigrid::cell_positions(int l) const {
   return data_[l]->cell_pos;
 }
 
+const assembly::CellOperator* Multigrid::cell_operator(int l) const {
+  return data_[l]->A ? nullptr : data_[l]->op;
+}
+
+PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
+  PetscFunctionBeginUser;
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(comm_, &size));
+  const char* why = size > 1                               ? "more than one MPI rank"
+                    : opt_.first_level > 0                 ? "composite elements"
+                    : opt_.smoother != Smoother::chebyshev ? "-gmg_smoother gs"
+                    : assembled_from_ < num_levels()       ? "-gmg_interpolation smoothed"
+                    : opt_.schwarz_from >= 0               ? "-gmg_schwarz_from"
+                    : !built_                              ? "no update() yet"
+                                                           : nullptr;
+  for (int l = 0; l + 1 < num_levels() && !why; ++l)
+    if (!rows_[l].empty()) why = "-gmg_interpolation energy (rows that are not trilinear)";
+  PetscCheck(!why, comm_, PETSC_ERR_SUP,
+             "gmg: the loop-layer cycle (-gmg_backend cuda) does not support %s yet; the host "
+             "backend does",
+             why);
+  const int L = num_levels();
+  out->assign(L, LoopLevelArrays{});
+  for (int l = 0; l < L; ++l) {
+    auto& a = (*out)[l];
+    const auto& D = levels_[l].layout();
+    const PetscScalar* m;
+    PetscCall(VecGetArrayRead(data_[l]->mask, &m));
+    a.mask.assign(m, m + 3 * std::size_t(D.num_owned));
+    PetscCall(VecRestoreArrayRead(data_[l]->mask, &m));
+    a.view.num_copies = D.num_owned;
+    a.view.diag_inv = data_[l]->diag_inv.empty() ? nullptr : data_[l]->diag_inv.data();
+    a.view.lambda_max = data_[l]->lambda_max;
+    a.view.presmooth = degree(l, opt_.presmooth);
+    a.view.postsmooth = degree(l, opt_.postsmooth);
+    if (l + 1 < L) {
+      // The trilinear weights the MAIJ interpolation holds, from canonical to local copies.
+      const auto& C = levels_[l + 1].layout();
+      std::vector<std::int32_t> fine_local(levels_[l].copies().num_copies, -1),
+          coarse_local(levels_[l + 1].copies().num_copies, -1);
+      for (std::int32_t i = 0; i < D.num_owned; ++i) fine_local[D.copies[i]] = i;
+      for (std::int32_t i = 0; i < C.num_owned; ++i) coarse_local[C.copies[i]] = i;
+      const auto I = hierarchy::interpolation(levels_[l], levels_[l + 1], 0);
+      a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
+      a.prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
+      a.restrict_offset.assign(std::size_t(C.num_owned) + 1, 0);
+      for (std::size_t i = 0; i < I.fine.size(); ++i) {
+        const auto f = fine_local[I.fine[i]];
+        for (int j = 0, k = 0; j < 8 && I.coarse[i][j] >= 0; ++j) {
+          if (I.weight[i][j] == 0.0) continue;
+          const auto c = coarse_local[I.coarse[i][j]];
+          a.prolong_coarse[8 * std::size_t(f) + k] = c;
+          a.prolong_weight[8 * std::size_t(f) + k++] = I.weight[i][j];
+          ++a.restrict_offset[std::size_t(c) + 1];
+        }
+      }
+      for (std::int32_t c = 0; c < C.num_owned; ++c)
+        a.restrict_offset[c + 1] += a.restrict_offset[c];
+      a.restrict_fine.resize(std::size_t(a.restrict_offset.back()));
+      a.restrict_weight.resize(a.restrict_fine.size());
+      std::vector<std::int32_t> next(a.restrict_offset.begin(), a.restrict_offset.end() - 1);
+      for (std::int32_t f = 0; f < D.num_owned; ++f)
+        for (int k = 0; k < 8 && a.prolong_coarse[8 * std::size_t(f) + k] >= 0; ++k) {
+          const auto c = a.prolong_coarse[8 * std::size_t(f) + k];
+          a.restrict_fine[next[c]] = f;
+          a.restrict_weight[next[c]++] = a.prolong_weight[8 * std::size_t(f) + k];
+        }
+      a.view.num_coarse = C.num_owned;
+      a.view.prolong_coarse = a.prolong_coarse.data();
+      a.view.prolong_weight = a.prolong_weight.data();
+      a.view.restrict_offset = a.restrict_offset.data();
+      a.view.restrict_fine = a.restrict_fine.data();
+      a.view.restrict_weight = a.restrict_weight.data();
+    }
+    a.view.mask = a.mask.data();
+  }
+  PetscFunctionReturn(0);
+}
+
 bool Multigrid::has_stored_cells(int l) const {
   return l >= 1 && data_[l]->stored != nullptr;
 }

@@ -28,6 +28,7 @@
 #include "lattice/lattice.hpp"
 #include "multigrid/energy_interpolation.hpp"
 #include "multigrid/fine_galerkin.hpp"
+#include "multigrid/loop_cycle.hpp"
 #include "multigrid/schwarz.hpp"
 #include "multigrid/stored_cells.hpp"
 
@@ -222,6 +223,18 @@ class Multigrid {
   /// and its solve x = A_c^+ b as the V-cycle does it (for tests).
   Mat coarsest_matrix() const { return coarse_matrix_; }
   PetscErrorCode solve_coarsest(Vec b, Vec x) { return KSPSolve(coarse_ksp_, b, x); }
+  /// Level l's per-cell operator: the fine cells on level 0, the stored Galerkin blocks below
+  /// (null on assembled levels).
+  const assembly::CellOperator* cell_operator(int l) const;
+  /// The cycle's levels as plain arrays for the loop-layer cycle (multigrid/loop_cycle.hpp,
+  /// the host and CUDA backends of issue 13), after update(): per level its mask, diagonal
+  /// blocks, lambda_max, Chebyshev degrees and the transfer from the next level, in the
+  /// layout's copy order. Refused (PETSC_ERR_SUP, with the reason) where that cycle is not
+  /// the one cycle() runs: more than one rank, composite elements, Gauss-Seidel, Schwarz
+  /// patches, energy-minimizing or smoothed interpolation.
+  PetscErrorCode loop_levels(std::vector<LoopLevelArrays>* out) const;
+  /// Options::cycle_gamma: 1 V-cycle, 2 W-cycle.
+  int cycle_gamma() const { return opt_.cycle_gamma; }
 
  private:
   struct LevelData;

@@ -14,6 +14,7 @@
 #include "backend/loop.hpp"
 #include "element/reference.hpp"
 #include "multigrid/gmg.hpp"
+#include "multigrid/host_loop_cycle.hpp"
 
 namespace hexcut::testing {
 namespace {
@@ -1074,6 +1075,79 @@ std::string blade_grid_cube(bool cuts, double angle_deg) {
       y += "]}\n";
     }
   return y;
+}
+
+TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
+  // The cycle written once over an executor (multigrid/loop_cycle.hpp: what the CUDA backend
+  // runs) on the host backend equals Multigrid::cycle, the PETSc-vector cycle, to round-off
+  // (the transfers sum in another order): V and W, double and float coarse blocks, the holed
+  // two-material corotated block and the cut 3-cell blade grid (coarse cells of several
+  // pieces, dead coarse DOFs). On more ranks it is refused with its reason.
+  PetscMPIInt size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  struct Case {
+    std::string yaml;
+    const char* options;
+    bool cut;
+  };
+  const Case cases[] = {
+      {kBlock, "-gmg_levels 3", false},
+      {kBlock, "-gmg_levels 3 -gmg_cycle w -gmg_precision single", false},
+      {kBlock, "-gmg_levels 3 -gmg_presmooth 3 -gmg_postsmooth 1", false},
+      {blade_grid_cube(true, 20.0), "-gmg_levels 4 -gmg_cycle w", true},
+  };
+  for (const auto& c : cases) {
+    Job job(PETSC_COMM_WORLD, c.yaml, 8, c.options);
+    if (c.cut) {
+      EXPECT_GT(job.cut_all(), 0);
+    }
+    set_rotations(job);
+    auto& mg = *job.sim->multigrid();
+    HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
+    std::unique_ptr<multigrid::HostLoopCycle> loop;
+    PetscErrorCode ierr;
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    ierr = multigrid::HostLoopCycle::create(mg, &loop);
+    PetscPopErrorHandler();
+    if (size > 1) {
+      EXPECT_EQ(ierr, PETSC_ERR_SUP) << c.options << ": refused on " << size << " ranks";
+      continue;
+    }
+    ASSERT_EQ(ierr, 0) << c.options;
+    Vec b, x;
+    HEXCUT_CALL(mg.create_vector(0, &b));
+    VecDuplicate(b, &x);
+    fill(b, 0.7);
+    HEXCUT_CALL(mg.cycle(b, x));
+    const PetscScalar* ba;
+    const PetscScalar* xa;
+    PetscInt n;
+    VecGetLocalSize(b, &n);
+    std::vector<double> y(n);
+    VecGetArrayRead(b, &ba);
+    HEXCUT_CALL(loop->apply(ba, y.data()));
+    VecRestoreArrayRead(b, &ba);
+    VecGetArrayRead(x, &xa);
+    double d = 0, m = 0;
+    for (PetscInt i = 0; i < n; ++i)
+      d = std::max(d, std::abs(xa[i] - y[i])), m = std::max(m, std::abs(xa[i]));
+    VecRestoreArrayRead(x, &xa);
+    std::printf("%s%s: %d levels, max |loop - cycle| / max |cycle| = %.1e\n", c.options,
+                c.cut ? " (cut)" : "", mg.num_levels(), d / m);
+    EXPECT_GT(m, 0.0);
+    EXPECT_LT(d / m, 1e-12) << c.options;
+    VecDestroy(&b);
+    VecDestroy(&x);
+  }
+  // What it does not run yet is named.
+  Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 3 -gmg_smoother gs");
+  auto& mg = *job.sim->multigrid();
+  HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
+  std::unique_ptr<multigrid::HostLoopCycle> loop;
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  const PetscErrorCode ierr = multigrid::HostLoopCycle::create(mg, &loop);
+  PetscPopErrorHandler();
+  EXPECT_EQ(ierr, PETSC_ERR_SUP);
 }
 
 TEST(Multigrid, SmoothedInterpolationKeepsCutBladeGridsWithinOneAndAHalfTimesTheUncutCube) {

@@ -1,0 +1,57 @@
+// The loop-layer cycle (multigrid/loop_cycle.hpp) on the host backend (issue 13): the
+// executor whose for_each is backend::for_each and whose cells are the Multigrid's own
+// (assembly::FineCells on level 0, StoredCells below), with the coarsest level solved by the
+// Multigrid's factorization. It is the reference the CUDA backend is tested against
+// (tests/cuda/device_test.cpp), and it is itself tested against Multigrid::cycle
+// (tests/multigrid/multigrid_test.cpp, "LoopCycle"): the same cycle to round-off.
+#pragma once
+
+#include <petscvec.h>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "backend/loop.hpp"
+#include "multigrid/gmg.hpp"
+#include "multigrid/loop_cycle.hpp"
+
+namespace hexcut::multigrid {
+
+class HostLoopCycle {
+ public:
+  /// The cycle of `mg` (after its update(); it must outlive this). Errors: those of
+  /// Multigrid::loop_levels (PETSC_ERR_SUP where the loop-layer cycle does not apply).
+  static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycle>* out);
+  ~HostLoopCycle();
+  HostLoopCycle(const HostLoopCycle&) = delete;
+  HostLoopCycle& operator=(const HostLoopCycle&) = delete;
+
+  /// x = M^-1 b, one cycle from zero; b, x: 3 values per owned copy of level 0.
+  PetscErrorCode apply(const double* b, double* x);
+
+  // The executor of loop::cycle_level.
+  int num_levels() const { return int(levels_.size()); }
+  int gamma() const { return mg_.cycle_gamma(); }
+  const LoopLevel& level(int l) const { return levels_[l].view; }
+  double* b(int l) { return work_[l][0].data(); }
+  double* x(int l) { return work_[l][1].data(); }
+  double* r(int l) { return work_[l][2].data(); }
+  double* dir(int l) { return work_[l][3].data(); }
+  template <class Kernel>
+  void for_each(std::int64_t n, const Kernel& k) {
+    backend::for_each(n, k);
+  }
+  void apply_add(int l, const double* x, double* y) { mg_.cell_operator(l)->apply_add(x, y); }
+  void solve_coarsest(const double* b, double* x);
+
+ private:
+  explicit HostLoopCycle(Multigrid& mg) : mg_(mg) {}
+  Multigrid& mg_;
+  std::vector<LoopLevelArrays> levels_;
+  std::vector<std::array<std::vector<double>, 4>> work_;  // b, x, r, dir per level
+  Vec coarse_b_ = nullptr, coarse_x_ = nullptr;
+  PetscErrorCode coarse_error_ = 0;
+};
+
+}  // namespace hexcut::multigrid

@@ -1,0 +1,196 @@
+// The multigrid cycle on the loop layer (issue 13; doc/theory.md, "The CUDA backend: the
+// cycle on the loop layer"): the V- or W-cycle of Multigrid::cycle (Chebyshev on point-block
+// Jacobi, trilinear transfers, the coarsest level solved by the caller) written once over an
+// executor, so that the host backend and the CUDA backend run the same algorithm with the same
+// pointwise bodies. Everything here is plain data and HEXCUT_HD functors on 3 values per vertex
+// copy (structure of arrays), free of PETSc, so nvcc compiles it too.
+//
+// An executor `Exec` provides, for levels l = 0..num_levels()-1 (all arrays in its memory):
+//   int num_levels() const; int gamma() const;      1: V-cycle, 2: W-cycle
+//   const LoopLevel& level(int l) const;            the level's arrays (below)
+//   double *b(l), *x(l), *r(l), *dir(l);            work vectors, 3 per copy
+//   void for_each(std::int64_t n, const K& k);      k(i) for i < n (any order, no races)
+//   void apply_add(int l, const double* x, double* y);  y += A_l x, the level's cells
+//   void solve_coarsest(const double* b, double* x);    x = A_c^-1 b on the last level
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "element/host_device.hpp"
+
+namespace hexcut::multigrid {
+
+/// One level of the loop-layer cycle as plain arrays (the executor's memory). The transfer
+/// is to this level from the next one: prolongation rows (8 coarse copies and weights per
+/// fine copy, -1 unused) and, for the restriction, the same weights gathered per coarse copy
+/// (CSR), so neither direction scatters and both backends sum in one fixed order.
+struct LoopLevel {
+  std::int64_t num_copies = 0;        // 3 DOFs each
+  const double* diag_inv = nullptr;   // 9 per copy: inverted 3x3 diagonal blocks (row-major)
+  const double* mask = nullptr;       // 3 per copy: 1 free, 0 prescribed or dead (identity row)
+  double lambda_max = 0;              // of D^-1 A (power iteration, Multigrid::estimate_lambda_max)
+  int presmooth = 0, postsmooth = 0;  // Chebyshev degrees
+  // Transfer from level l+1 (null on the coarsest level).
+  const std::int32_t* prolong_coarse = nullptr;   // 8 per copy of this level
+  const double* prolong_weight = nullptr;         // 8 per copy of this level
+  std::int64_t num_coarse = 0;                    // copies of level l+1
+  const std::int32_t* restrict_offset = nullptr;  // num_coarse + 1
+  const std::int32_t* restrict_fine = nullptr;    // fine copies of each coarse copy
+  const double* restrict_weight = nullptr;
+};
+
+/// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
+/// diagonal blocks stay the Multigrid's (diag_inv points into it).
+struct LoopLevelArrays {
+  LoopLevel view;  // its pointers into the vectors below
+  std::vector<double> mask;
+  std::vector<std::int32_t> prolong_coarse;
+  std::vector<double> prolong_weight;
+  std::vector<std::int32_t> restrict_offset, restrict_fine;
+  std::vector<double> restrict_weight;
+};
+
+/// y = 0 (3 values per copy).
+struct Zero {
+  double* y;
+  HEXCUT_HD void operator()(std::int32_t i) const {
+    for (int c = 0; c < 3; ++c) y[3 * std::int64_t(i) + c] = 0.0;
+  }
+};
+
+/// r = b - (A x + identity rows): r holds A x from the cells on entry; where the mask is 0
+/// the row is the identity's (assembly::apply's identity_mask), then the residual is formed.
+/// With `masked`, the residual is zeroed where the mask is 0 (what the restriction sees).
+struct Residual {
+  const double* b;
+  const double* x;
+  const double* mask;
+  bool masked;
+  double* r;
+  HEXCUT_HD void operator()(std::int32_t i) const {
+    for (int c = 0; c < 3; ++c) {
+      const auto k = 3 * std::int64_t(i) + c;
+      const double Ax = mask[k] == 0.0 ? r[k] + x[k] : r[k];
+      r[k] = masked ? mask[k] * (b[k] - Ax) : b[k] - Ax;
+    }
+  }
+};
+
+/// dir = alpha D^-1 r + beta dir (beta = 0: dir's old values are not read).
+struct JacobiDirection {
+  const double* diag_inv;
+  const double* r;
+  double alpha, beta;
+  double* dir;
+  HEXCUT_HD void operator()(std::int32_t i) const {
+    const double* D = diag_inv + 9 * std::int64_t(i);
+    const double* ri = r + 3 * std::int64_t(i);
+    for (int c = 0; c < 3; ++c) {
+      const double z = D[3 * c] * ri[0] + D[3 * c + 1] * ri[1] + D[3 * c + 2] * ri[2];
+      double& d = dir[3 * std::int64_t(i) + c];
+      d = beta == 0.0 ? alpha * z : alpha * z + beta * d;
+    }
+  }
+};
+
+/// x += y.
+struct AddTo {
+  const double* y;
+  double* x;
+  HEXCUT_HD void operator()(std::int32_t i) const {
+    for (int c = 0; c < 3; ++c) x[3 * std::int64_t(i) + c] += y[3 * std::int64_t(i) + c];
+  }
+};
+
+/// b_C = sum over the fine copies f of C of w_fC r_f (the transpose of the prolongation), per
+/// coarse copy C.
+struct Restrict {
+  const std::int32_t* offset;
+  const std::int32_t* fine;
+  const double* weight;
+  const double* r;
+  double* b;
+  HEXCUT_HD void operator()(std::int32_t C) const {
+    double s[3] = {0.0, 0.0, 0.0};
+    for (auto k = offset[C]; k < offset[C + 1]; ++k)
+      for (int c = 0; c < 3; ++c) s[c] += weight[k] * r[3 * std::int64_t(fine[k]) + c];
+    for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = s[c];
+  }
+};
+
+/// x_f += mask_f sum_j w_fj x_C(j), per fine copy f (the coarse correction).
+struct ProlongAdd {
+  const std::int32_t* coarse;
+  const double* weight;
+  const double* mask;
+  const double* xc;
+  double* x;
+  HEXCUT_HD void operator()(std::int32_t f) const {
+    double s[3] = {0.0, 0.0, 0.0};
+    for (int j = 0; j < 8; ++j) {
+      const auto C = coarse[8 * std::int64_t(f) + j];
+      if (C < 0) break;
+      const double w = weight[8 * std::int64_t(f) + j];
+      for (int c = 0; c < 3; ++c) s[c] += w * xc[3 * std::int64_t(C) + c];
+    }
+    for (int c = 0; c < 3; ++c) x[3 * std::int64_t(f) + c] += mask[3 * std::int64_t(f) + c] * s[c];
+  }
+};
+
+namespace loop {
+
+/// r = b - A_l x (masked: zero where the mask is 0).
+template <class Exec>
+void residual(Exec& ex, int l, const double* b, const double* x, double* r, bool masked) {
+  const LoopLevel& L = ex.level(l);
+  ex.for_each(L.num_copies, Zero{r});
+  ex.apply_add(l, x, r);
+  ex.for_each(L.num_copies, Residual{b, x, L.mask, masked, r});
+}
+
+/// Chebyshev iteration on D^-1 A over [0.2, 1.1] lambda_max, `degree` steps from x (the
+/// recurrence of Multigrid::chebyshev).
+template <class Exec>
+void chebyshev(Exec& ex, int l, const double* b, double* x, int degree) {
+  const LoopLevel& L = ex.level(l);
+  const double hi = 1.1 * L.lambda_max, lo = 0.2 * L.lambda_max;
+  const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
+  double rho_old = 1.0 / sigma;
+  double *r = ex.r(l), *dir = ex.dir(l);
+  residual(ex, l, b, x, r, false);
+  ex.for_each(L.num_copies, JacobiDirection{L.diag_inv, r, 1.0 / theta, 0.0, dir});
+  for (int i = 0; i < degree; ++i) {
+    ex.for_each(L.num_copies, AddTo{dir, x});
+    if (i + 1 == degree) break;
+    residual(ex, l, b, x, r, false);
+    const double rho = 1.0 / (2.0 * sigma - rho_old);
+    ex.for_each(L.num_copies,
+                JacobiDirection{L.diag_inv, r, 2.0 * rho / delta, rho * rho_old, dir});
+    rho_old = rho;
+  }
+}
+
+/// One cycle on level l for ex.b(l) into ex.x(l) (from zero when zero_guess).
+template <class Exec>
+void cycle_level(Exec& ex, int l, bool zero_guess) {
+  const int levels = ex.num_levels();
+  if (l == levels - 1) {
+    ex.solve_coarsest(ex.b(l), ex.x(l));
+    return;
+  }
+  const LoopLevel& L = ex.level(l);
+  double *b = ex.b(l), *x = ex.x(l), *r = ex.r(l);
+  if (zero_guess) ex.for_each(L.num_copies, Zero{x});
+  if (L.presmooth > 0) chebyshev(ex, l, b, x, L.presmooth);
+  residual(ex, l, b, x, r, true);
+  ex.for_each(L.num_coarse,
+              Restrict{L.restrict_offset, L.restrict_fine, L.restrict_weight, r, ex.b(l + 1)});
+  const int visits = l + 2 == levels ? 1 : ex.gamma();
+  for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
+  ex.for_each(L.num_copies, ProlongAdd{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
+  if (L.postsmooth > 0) chebyshev(ex, l, b, x, L.postsmooth);
+}
+
+}  // namespace loop
+}  // namespace hexcut::multigrid
