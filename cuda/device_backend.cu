@@ -1,7 +1,9 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -49,6 +51,20 @@ __global__ void for_each_of_colour(Kernel k, const std::int32_t* cell, std::int3
   if (i < n) k(cell[i]);
 }
 
+/// k over the cells of every colour of `cells`, one launch per colour (`order`: the device
+/// copy of cells.colour_cell); no synchronization.
+template <class Kernel>
+void launch_colours(const Kernel& k, const std::int32_t* order, const CellArrays& cells) {
+  constexpr int kThreads = 128;
+  for (int c = 0; c < cells.num_colours; ++c) {
+    const std::int32_t n = cells.colour_offset[c + 1] - cells.colour_offset[c];
+    if (n == 0) continue;
+    for_each_of_colour<<<(n + kThreads - 1) / kThreads, kThreads>>>(
+        k, order + cells.colour_offset[c], n);
+    check(cudaGetLastError(), "kernel launch");
+  }
+}
+
 template <class T>
 void apply(const T* packed, const CellArrays& cells, const double* x, double* y) {
   if (cells.num_cells == 0) return;
@@ -62,14 +78,7 @@ void apply(const T* packed, const CellArrays& cells, const double* x, double* y)
   DeviceArray<double> Y(y, values);
   const backend::CellApplyAdd<multigrid::StoredCellOpsOf<T>> k{
       {P.get(), cells.block_of ? block_of.get() : nullptr}, corners.get(), X.get(), Y.get()};
-  constexpr int kThreads = 128;
-  for (int c = 0; c < cells.num_colours; ++c) {
-    const std::int32_t n = cells.colour_offset[c + 1] - cells.colour_offset[c];
-    if (n == 0) continue;
-    for_each_of_colour<<<(n + kThreads - 1) / kThreads, kThreads>>>(
-        k, order.get() + cells.colour_offset[c], n);
-    check(cudaGetLastError(), "kernel launch");
-  }
+  launch_colours(k, order.get(), cells);
   check(cudaDeviceSynchronize(), "kernel");
   Y.copy_to_host(y);
 }
@@ -105,14 +114,7 @@ class DeviceFineCells {
   /// y += A x, x and y device arrays, launched colour by colour (no synchronization).
   void apply_add(const CellArrays& cells, const double* x, double* y) const {
     const backend::CellApplyAdd<assembly::FineCellOps> k{{d_}, d_.corners, x, y};
-    constexpr int kThreads = 128;
-    for (int c = 0; c < cells.num_colours; ++c) {
-      const std::int32_t n = cells.colour_offset[c + 1] - cells.colour_offset[c];
-      if (n == 0) continue;
-      for_each_of_colour<<<(n + kThreads - 1) / kThreads, kThreads>>>(
-          k, order_->get() + cells.colour_offset[c], n);
-      check(cudaGetLastError(), "kernel launch");
-    }
+    launch_colours(k, order_->get(), cells);
   }
 
  private:
@@ -123,6 +125,50 @@ class DeviceFineCells {
   std::unique_ptr<DeviceArray<element::ReferenceMatrices>> reference_;
   std::unique_ptr<DeviceArray<char>> cell_masked_;
 };
+
+/// A level's packed Galerkin blocks on the device (double or float), its cells and colours.
+class DeviceStoredCells {
+ public:
+  DeviceStoredCells(const double* pd, const float* ps, const CellArrays& cells) : cells_(cells) {
+    const auto n = std::size_t(cells.num_cells);
+    const auto values = multigrid::kPackedSize * std::size_t(cells.num_blocks);
+    packed_double_ = upload(&pd_, pd, values);
+    packed_single_ = upload(&ps_, pd ? nullptr : ps, values);
+    corners_ = upload(&c_, cells.corners, 8 * n);
+    block_of_ = upload(&b_, cells.block_of, n);
+    order_ = upload(&o_, cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
+  }
+  /// y += A x, x and y device arrays (no synchronization).
+  void apply_add(const double* x, double* y) const {
+    if (cells_.num_cells == 0) return;
+    if (packed_double_)
+      launch_colours(
+          backend::CellApplyAdd<multigrid::StoredCellOps>{
+              {packed_double_, block_of_}, corners_, x, y},
+          order_, cells_);
+    else
+      launch_colours(
+          backend::CellApplyAdd<multigrid::StoredCellOpsSingle>{
+              {packed_single_, block_of_}, corners_, x, y},
+          order_, cells_);
+  }
+
+ private:
+  CellArrays cells_;  // host arrays: the colour offsets each launch reads
+  std::unique_ptr<DeviceArray<double>> pd_;
+  std::unique_ptr<DeviceArray<float>> ps_;
+  std::unique_ptr<DeviceArray<std::int32_t>> c_, b_, o_;
+  const double* packed_double_ = nullptr;
+  const float* packed_single_ = nullptr;
+  const std::int32_t *corners_ = nullptr, *block_of_ = nullptr, *order_ = nullptr;
+};
+
+/// k(i) for i < n, one thread each.
+template <class Kernel>
+__global__ void for_each_index(Kernel k, std::int64_t n) {
+  const std::int64_t i = std::int64_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) k(std::int32_t(i));
+}
 
 __global__ void copy_kernel(const double* x, double* y, std::size_t n) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
@@ -153,6 +199,116 @@ double median_seconds(int repeat, const F& f) {
 }
 
 }  // namespace
+
+/// The executor of multigrid::loop::cycle_level on the device (multigrid/loop_cycle.hpp).
+struct DeviceCycle::Executor {
+  std::vector<multigrid::LoopLevel> levels;  // device pointers
+  std::vector<CellArrays> cells;             // host arrays (colour offsets)
+  std::vector<std::unique_ptr<DeviceArray<double>>> doubles;
+  std::vector<std::unique_ptr<DeviceArray<std::int32_t>>> ints;
+  std::unique_ptr<DeviceFineCells> fine;
+  std::vector<std::unique_ptr<DeviceStoredCells>> stored;  // per level (null on 0 and the last)
+  std::vector<std::array<double*, 4>> work;                // b, x, r, dir per level
+  int gamma_ = 1;
+  std::function<void(const double*, double*)> coarse;
+  std::vector<double> coarse_b, coarse_x;  // host copies of the coarsest level's b and x
+
+  template <class T>
+  T* up(std::vector<std::unique_ptr<DeviceArray<T>>>* owner, const T* host, std::size_t n) {
+    if (!host) return nullptr;
+    owner->push_back(std::make_unique<DeviceArray<T>>(host, n));
+    return owner->back()->get();
+  }
+  double* zeros(std::size_t n) {
+    doubles.push_back(std::make_unique<DeviceArray<double>>(n));
+    check(cudaMemset(doubles.back()->get(), 0, n * sizeof(double)), "cudaMemset");
+    return doubles.back()->get();
+  }
+
+  int num_levels() const { return int(levels.size()); }
+  int gamma() const { return gamma_; }
+  const multigrid::LoopLevel& level(int l) const { return levels[l]; }
+  double* b(int l) { return work[l][0]; }
+  double* x(int l) { return work[l][1]; }
+  double* r(int l) { return work[l][2]; }
+  double* dir(int l) { return work[l][3]; }
+  template <class Kernel>
+  void for_each(std::int64_t n, const Kernel& k) {
+    if (n == 0) return;
+    constexpr int kThreads = 256;
+    for_each_index<<<unsigned((n + kThreads - 1) / kThreads), kThreads>>>(k, n);
+    check(cudaGetLastError(), "kernel launch");
+  }
+  void apply_add(int l, const double* xd, double* yd) {
+    if (l == 0)
+      fine->apply_add(cells[0], xd, yd);
+    else
+      stored[l]->apply_add(xd, yd);
+  }
+  void solve_coarsest(const double* bd, double* xd) {
+    const auto n = coarse_b.size();
+    check(cudaMemcpy(coarse_b.data(), bd, n * sizeof(double), cudaMemcpyDeviceToHost),
+          "cudaMemcpy to host");
+    coarse(coarse_b.data(), coarse_x.data());
+    check(cudaMemcpy(xd, coarse_x.data(), n * sizeof(double), cudaMemcpyHostToDevice),
+          "cudaMemcpy to device");
+  }
+};
+
+DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
+                         std::function<void(const double* b, double* x)> solve_coarsest)
+    : ex_(std::make_unique<Executor>()) {
+  auto& e = *ex_;
+  const int L = int(levels.size());
+  if (L < 2 || !levels[0].fine)
+    throw std::runtime_error("DeviceCycle: needs >= 2 levels, fine cells on 0");
+  e.gamma_ = gamma;
+  e.coarse = std::move(solve_coarsest);
+  e.levels.resize(L);
+  e.cells.resize(L);
+  e.stored.resize(L);
+  e.work.resize(L);
+  for (int l = 0; l < L; ++l) {
+    const auto& h = levels[l].loop;
+    auto& d = e.levels[l];
+    d = h;
+    const auto n = std::size_t(h.num_copies);
+    d.mask = e.up(&e.doubles, h.mask, 3 * n);
+    d.diag_inv = e.up(&e.doubles, h.diag_inv, 9 * n);
+    if (l + 1 < L) {
+      d.prolong_coarse = e.up(&e.ints, h.prolong_coarse, 8 * n);
+      d.prolong_weight = e.up(&e.doubles, h.prolong_weight, 8 * n);
+      const auto nc = std::size_t(h.num_coarse);
+      const auto nr = std::size_t(h.restrict_offset[nc]);
+      d.restrict_offset = e.up(&e.ints, h.restrict_offset, nc + 1);
+      d.restrict_fine = e.up(&e.ints, h.restrict_fine, nr);
+      d.restrict_weight = e.up(&e.doubles, h.restrict_weight, nr);
+      e.cells[l] = levels[l].cells;
+      if (l == 0)
+        e.fine = std::make_unique<DeviceFineCells>(*levels[0].fine, levels[0].tables, e.cells[0]);
+      else
+        e.stored[l] = std::make_unique<DeviceStoredCells>(levels[l].packed_double,
+                                                          levels[l].packed_single, e.cells[l]);
+    }
+    for (auto& w : e.work[l]) w = e.zeros(3 * n);
+  }
+  e.coarse_b.assign(3 * std::size_t(levels[L - 1].loop.num_copies), 0.0);
+  e.coarse_x = e.coarse_b;
+}
+
+DeviceCycle::~DeviceCycle() = default;
+
+void DeviceCycle::apply(const double* b, double* x) {
+  auto& e = *ex_;
+  const auto n = 3 * std::size_t(e.levels[0].num_copies);
+  check(cudaMemcpy(e.b(0), b, n * sizeof(double), cudaMemcpyHostToDevice), "cudaMemcpy to device");
+  multigrid::loop::cycle_level(e, 0, true);
+  check(cudaMemcpy(x, e.x(0), n * sizeof(double), cudaMemcpyDeviceToHost), "cudaMemcpy to host");
+}
+
+double DeviceCycle::time_cycle(int repeat) {
+  return median_seconds(repeat, [&] { multigrid::loop::cycle_level(*ex_, 0, true); });
+}
 
 void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
                     const CellArrays& cells, const double* x, double* y) {

@@ -6,10 +6,14 @@
 #pragma once
 
 #include <algorithm>
+#include <memory>
+#include <stdexcept>
+#include <vector>
 
 #include "assembly/fine_cells.hpp"
 #include "backend/loop.hpp"
 #include "device_kernels.hpp"
+#include "multigrid/gmg.hpp"
 #include "multigrid/stored_cells.hpp"
 
 namespace hexcut::cuda {
@@ -56,6 +60,88 @@ inline void fine_apply_add(const assembly::FineCells& A, const backend::CellColo
   FineTables tables;
   const auto cells = fine_cell_arrays(A, colours, &tables);
   fine_apply_add(A.data(), tables, cells, x, y);
+}
+
+/// -gmg_backend cuda (multigrid::Backend::cuda): the cycle of a Multigrid on device 0
+/// (DeviceCycle over Multigrid::loop_levels), made after each of its update()s.
+class MultigridDeviceCycle : public multigrid::CycleBackend {
+ public:
+  /// Errors: those of Multigrid::loop_levels (PETSC_ERR_SUP with the reason where the loop-
+  /// layer cycle does not apply), PETSC_ERR_SUP when no CUDA device is visible (with the
+  /// runtime's reason), PETSC_ERR_LIB with the CUDA runtime's message.
+  static PetscErrorCode create(multigrid::Multigrid& mg,
+                               std::unique_ptr<multigrid::CycleBackend>* out) {
+    PetscFunctionBeginUser;
+    std::string why;
+    PetscCheck(device_count(&why) > 0, PETSC_COMM_SELF, PETSC_ERR_SUP,
+               "-gmg_backend cuda: no CUDA device (%s)", why.c_str());
+    std::unique_ptr<MultigridDeviceCycle> c(new MultigridDeviceCycle(mg));
+    PetscCall(mg.loop_levels(&c->arrays_));
+    const int L = mg.num_levels();
+    std::vector<DeviceCycleLevel> levels(L);
+    c->colours_.resize(L);
+    for (int l = 0; l < L; ++l) {
+      auto& d = levels[l];
+      d.loop = c->arrays_[l].view;
+      if (l + 1 == L) continue;  // the coarsest level is solved on the host
+      c->colours_[l] = backend::colour_cells(mg.cell_positions(l));
+      if (l == 0) {
+        const auto* fine = dynamic_cast<const assembly::FineCells*>(mg.cell_operator(0));
+        PetscCheck(fine, PETSC_COMM_SELF, PETSC_ERR_PLIB, "gmg: level 0 has no fine cells");
+        c->fine_data_ = fine->data();
+        d.cells = fine_cell_arrays(*fine, c->colours_[0], &d.tables);
+        d.fine = &c->fine_data_;
+      } else {
+        const auto& A = mg.stored_cells(l);
+        d.cells = CellArrays{std::int64_t(A.num_cells()),  A.corners(),
+                             c->colours_[l].num_colours(), c->colours_[l].offset.data(),
+                             c->colours_[l].cell.data(),   A.layout().num_local(),
+                             std::int64_t(A.num_blocks()), A.block_of()};
+        d.packed_double = A.packed_double();
+        d.packed_single = A.packed_single();
+      }
+    }
+    auto* self = c.get();
+    try {
+      c->cycle_ = std::make_unique<DeviceCycle>(
+          levels, mg.cycle_gamma(), [self](const double* b, double* x) {
+            self->coarse_error_ = self->mg_.solve_coarsest(b, x);
+            if (self->coarse_error_) throw std::runtime_error("coarsest solve");
+          });
+    } catch (const std::exception& e) {
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "-gmg_backend cuda: %s", e.what());
+    }
+    *out = std::move(c);
+    PetscFunctionReturn(0);
+  }
+  PetscErrorCode apply(const double* b, double* x) override {
+    PetscFunctionBeginUser;
+    coarse_error_ = 0;
+    try {
+      cycle_->apply(b, x);
+    } catch (const std::exception& e) {
+      PetscCall(coarse_error_);
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "-gmg_backend cuda: %s", e.what());
+    }
+    PetscFunctionReturn(0);
+  }
+  /// Median seconds of `repeat` device cycles (DeviceCycle::time_cycle).
+  double time_cycle(int repeat) { return cycle_->time_cycle(repeat); }
+
+ private:
+  explicit MultigridDeviceCycle(multigrid::Multigrid& mg) : mg_(mg) {}
+  multigrid::Multigrid& mg_;
+  std::vector<multigrid::LoopLevelArrays> arrays_;
+  std::vector<backend::CellColours> colours_;
+  assembly::FineCellData fine_data_;
+  std::unique_ptr<DeviceCycle> cycle_;
+  PetscErrorCode coarse_error_ = 0;
+};
+
+/// The factory hexcut installs with multigrid::set_device_cycle_factory.
+inline PetscErrorCode device_cycle(multigrid::Multigrid& mg,
+                                   std::unique_ptr<multigrid::CycleBackend>* out) {
+  return MultigridDeviceCycle::create(mg, out);
 }
 
 }  // namespace hexcut::cuda

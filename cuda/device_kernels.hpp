@@ -4,9 +4,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "assembly/fine_cell_kernels.hpp"
+#include "multigrid/loop_cycle.hpp"
 
 namespace hexcut::cuda {
 
@@ -44,6 +48,42 @@ struct FineTables {
 /// unused. x, y: host arrays, copied in and out. Throws std::runtime_error on a CUDA error.
 void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
                     const CellArrays& cells, const double* x, double* y);
+
+/// One level of the device cycle, host memory: the loop-layer arrays (mask, diagonal blocks,
+/// transfer from the next level; multigrid::Multigrid::loop_levels) and the level's cells:
+/// the fine cells on level 0 (`fine`, `tables`), packed Galerkin blocks below (double or
+/// float, with cells.num_blocks and cells.block_of); the coarsest level needs neither.
+struct DeviceCycleLevel {
+  multigrid::LoopLevel loop;
+  CellArrays cells;
+  const assembly::FineCellData* fine = nullptr;
+  FineTables tables;
+  const double* packed_double = nullptr;
+  const float* packed_single = nullptr;
+};
+
+/// The multigrid cycle (multigrid::loop::cycle_level, the host's algorithm and bodies) with
+/// every level resident on device 0: smoothing, residuals and transfers on the device, the
+/// coarsest level solved by `solve_coarsest` on the host (b copied down, x copied up: the
+/// coarsest level is small, and the host's sparse factorization is what the host cycle uses
+/// too). Built once per set-up (uploads everything); each apply copies b in and x out.
+/// Throws std::runtime_error with the CUDA runtime's message when a call fails.
+class DeviceCycle {
+ public:
+  DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
+              std::function<void(const double* b, double* x)> solve_coarsest);
+  ~DeviceCycle();
+  DeviceCycle(const DeviceCycle&) = delete;
+  DeviceCycle& operator=(const DeviceCycle&) = delete;
+  /// x = M^-1 b (one cycle from zero); b, x: host arrays of level 0's owned DOFs.
+  void apply(const double* b, double* x);
+  /// The median time of `repeat` cycles with b already on the device [s] (benchmarks).
+  double time_cycle(int repeat);
+
+ private:
+  struct Executor;
+  std::unique_ptr<Executor> ex_;
+};
 
 /// Device timings for the benchmarks (scripts/bench/operator_throughput.cpp), everything
 /// resident on device 0: the median of `repeat` fine applications y += A x (all colours, after

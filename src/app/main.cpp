@@ -15,6 +15,9 @@
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "hexcut_version.hpp"
+#ifdef HEXCUT_HAVE_CUDA
+#include "device_backend.hpp"  // -gmg_backend cuda
+#endif
 
 namespace {
 
@@ -105,6 +108,9 @@ int main(int argc, char** argv) {
     return hexcut::kExitOther;
   }
 
+#ifdef HEXCUT_HAVE_CUDA
+  hexcut::multigrid::set_device_cycle_factory(hexcut::cuda::device_cycle);
+#endif
   int code = hexcut::kExitOk, rank = 0, size = 1;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
   MPI_Comm_size(PETSC_COMM_WORLD, &size);

@@ -13,9 +13,30 @@
 #include "common/errors.hpp"
 #include "common/petsc_check.hpp"
 #include "element/element.hpp"
+#include "multigrid/host_loop_cycle.hpp"
 #include "multigrid/kernels.hpp"
 
 namespace hexcut::multigrid {
+
+namespace {
+CycleBackendFactory the_device_cycle_factory = nullptr;
+}  // namespace
+
+void set_device_cycle_factory(CycleBackendFactory factory) {
+  the_device_cycle_factory = factory;
+}
+CycleBackendFactory device_cycle_factory() {
+  return the_device_cycle_factory;
+}
+
+const char* loop_cycle_refusal(const Options& o, int ranks) {
+  return ranks > 1                                     ? "more than one MPI rank"
+         : o.first_level > 0                           ? "composite elements"
+         : o.smoother != Smoother::chebyshev           ? "-gmg_smoother gs"
+         : o.interpolation != Interpolation::trilinear ? "-gmg_interpolation energy or smoothed"
+         : o.schwarz_from >= 0                         ? "-gmg_schwarz_from"
+                                                       : nullptr;
+}
 
 struct Multigrid::LevelData {
   DM dm = nullptr;
@@ -481,6 +502,18 @@ const assembly::CellPositions& Multigrid::cell_positions(int l) const {
   return data_[l]->cell_pos;
 }
 
+PetscErrorCode Multigrid::solve_coarsest(const double* b, double* x) {
+  PetscFunctionBeginUser;
+  auto& d = *data_[num_levels() - 1];
+  PetscCall(VecPlaceArray(d.b, b));
+  PetscCall(VecPlaceArray(d.x, x));
+  const PetscErrorCode ierr = KSPSolve(coarse_ksp_, d.b, d.x);
+  PetscCall(VecResetArray(d.b));
+  PetscCall(VecResetArray(d.x));
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
 const assembly::CellOperator* Multigrid::cell_operator(int l) const {
   return data_[l]->A ? nullptr : data_[l]->op;
 }
@@ -489,13 +522,8 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
   PetscFunctionBeginUser;
   PetscMPIInt size;
   PetscCallMPI(MPI_Comm_size(comm_, &size));
-  const char* why = size > 1                               ? "more than one MPI rank"
-                    : opt_.first_level > 0                 ? "composite elements"
-                    : opt_.smoother != Smoother::chebyshev ? "-gmg_smoother gs"
-                    : assembled_from_ < num_levels()       ? "-gmg_interpolation smoothed"
-                    : opt_.schwarz_from >= 0               ? "-gmg_schwarz_from"
-                    : !built_                              ? "no update() yet"
-                                                           : nullptr;
+  const char* why = loop_cycle_refusal(opt_, size);
+  if (!why && !built_) why = "a cycle before the first update()";
   for (int l = 0; l + 1 < num_levels() && !why; ++l)
     if (!rows_[l].empty()) why = "-gmg_interpolation energy (rows that are not trilinear)";
   PetscCheck(!why, comm_, PETSC_ERR_SUP,
@@ -789,6 +817,19 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     }
   }
   built_ = true;
+  // The other backends hold copies of (or pointers into) the levels: made again after every
+  // update, rotation-only ones included.
+  backend_cycle_.reset();
+  if (opt_.backend == Backend::host_loop) {
+    std::unique_ptr<HostLoopCycle> c;
+    PetscCall(HostLoopCycle::create(*this, &c));
+    backend_cycle_ = std::move(c);
+  } else if (opt_.backend == Backend::cuda) {
+    PetscCheck(device_cycle_factory(), comm_, PETSC_ERR_SUP,
+               "gmg: -gmg_backend cuda: this hexcut was built without its CUDA backend (nvcc "
+               "not found at configure time, or HEXCUT_CUDA=OFF)");
+    PetscCall(device_cycle_factory()(*this, &backend_cycle_));
+  }
   PetscCall(PetscLogEventEnd(ev_setup_, 0, 0, 0, 0));
   if (opt_.view) PetscCall(view(PETSC_VIEWER_STDOUT_(comm_)));
   PetscFunctionReturn(0);
@@ -1370,6 +1411,18 @@ PetscErrorCode Multigrid::cycle_level(int l, bool zero_guess) {
 PetscErrorCode Multigrid::cycle(Vec b, Vec x) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_apply_, 0, 0, 0, 0));
+  if (backend_cycle_) {
+    const PetscScalar* ba;
+    PetscScalar* xa;
+    PetscCall(VecGetArrayRead(b, &ba));
+    PetscCall(VecGetArray(x, &xa));
+    const PetscErrorCode ierr = backend_cycle_->apply(ba, xa);
+    PetscCall(VecRestoreArray(x, &xa));
+    PetscCall(VecRestoreArrayRead(b, &ba));
+    PetscCall(ierr);
+    PetscCall(PetscLogEventEnd(ev_apply_, 0, 0, 0, 0));
+    PetscFunctionReturn(0);
+  }
   // The first level's b and x are the caller's arrays (cycle_level only reads b there):
   // two fewer vectors of the largest level, and no copies in or out.
   auto& d = *data_[opt_.first_level];

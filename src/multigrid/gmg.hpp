@@ -36,6 +36,35 @@ namespace hexcut::multigrid {
 
 enum class Smoother { gauss_seidel, chebyshev };
 
+/// Where the cycle runs (-gmg_backend; doc/theory.md, "The CUDA backend"): host, the cycle on
+/// PETSc vectors (every feature, any number of ranks); host_loop, the loop-layer cycle
+/// (multigrid/loop_cycle.hpp) on the host, the CUDA backend's algorithm with the host's
+/// bodies; cuda, the same on device 0 (one rank; builds with nvcc only).
+enum class Backend { host, host_loop, cuda };
+
+class Multigrid;
+struct Options;
+
+/// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
+/// `ranks` ranks, or null: it runs one rank, Chebyshev on point-block Jacobi, trilinear
+/// interpolation, fine hexahedra (no composite elements).
+const char* loop_cycle_refusal(const Options& o, int ranks);
+
+/// A cycle run elsewhere than on PETSc vectors (Backend::host_loop, Backend::cuda): x = M^-1 b
+/// on arrays of the first level's owned DOFs. Built after each update() of its Multigrid.
+class CycleBackend {
+ public:
+  virtual ~CycleBackend() = default;
+  virtual PetscErrorCode apply(const double* b, double* x) = 0;
+};
+
+/// Makes the CUDA backend's cycle for a Multigrid (after its update()). The application
+/// installs it when hexcut is built with CUDA (cuda/device_backend.hpp, device_cycle); without
+/// it, -gmg_backend cuda is refused.
+using CycleBackendFactory = PetscErrorCode (*)(Multigrid& mg, std::unique_ptr<CycleBackend>* out);
+void set_device_cycle_factory(CycleBackendFactory factory);
+CycleBackendFactory device_cycle_factory();
+
 /// Interpolation between levels (doc/theory.md, "Coarse spaces after cuts and on thin pieces").
 /// smoothed: P <- (I - omega D^-1 A) P on the rows near irregular coarse cells; the levels
 /// below the first smoothed transfer are then assembled sparse matrices (P^T A P).
@@ -86,6 +115,7 @@ struct Options {
   // first are stored in float (products in double); the first level, whose operator is the
   // outer CG's, stays double, so CG still converges to its rtol in double.
   Precision precision = Precision::double_;
+  Backend backend = Backend::host;
   // Composite elements (doc/theory.md, "Composite elements"; set by the simulation, not an
   // option): the cycle starts on this level, whose operator is the composite system: the
   // Galerkin blocks of the levels below with the rows and columns of fixed composite DOFs
@@ -223,6 +253,8 @@ class Multigrid {
   /// and its solve x = A_c^+ b as the V-cycle does it (for tests).
   Mat coarsest_matrix() const { return coarse_matrix_; }
   PetscErrorCode solve_coarsest(Vec b, Vec x) { return KSPSolve(coarse_ksp_, b, x); }
+  /// The same on arrays of the coarsest level's owned DOFs (the loop-layer cycle's executors).
+  PetscErrorCode solve_coarsest(const double* b, double* x);
   /// Level l's per-cell operator: the fine cells on level 0, the stored Galerkin blocks below
   /// (null on assembled levels).
   const assembly::CellOperator* cell_operator(int l) const;
@@ -321,6 +353,7 @@ class Multigrid {
   std::vector<char> chain_missing_;
   bool rotatable_ = false;  // every composite vertex fixed in all components or none
   Mat shell_ = nullptr;
+  std::unique_ptr<CycleBackend> backend_cycle_;  // Backend::host_loop, cuda: rebuilt by update()
   KSP coarse_ksp_ = nullptr;
   Mat coarse_matrix_ = nullptr;
   PetscLogEvent ev_setup_ = 0, ev_apply_ = 0, ev_smooth_ = 0, ev_interp_ = 0, ev_schwarz_ = 0;

@@ -9,30 +9,13 @@ PetscErrorCode HostLoopCycle::create(Multigrid& mg, std::unique_ptr<HostLoopCycl
   c->work_.resize(c->levels_.size());
   for (std::size_t l = 0; l < c->levels_.size(); ++l)
     for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_copies), 0.0);
-  const int last = mg.num_levels() - 1;
-  PetscCall(mg.create_vector(last, &c->coarse_b_));
-  PetscCall(mg.create_vector(last, &c->coarse_x_));
   *out = std::move(c);
   PetscFunctionReturn(0);
 }
 
-HostLoopCycle::~HostLoopCycle() {
-  VecDestroy(&coarse_b_);
-  VecDestroy(&coarse_x_);
-}
-
 void HostLoopCycle::solve_coarsest(const double* b, double* x) {
   // The executor interface has no error channel: the first PETSc error is kept for apply().
-  auto solve = [&]() -> PetscErrorCode {
-    PetscFunctionBeginUser;
-    PetscCall(VecPlaceArray(coarse_b_, b));
-    PetscCall(VecPlaceArray(coarse_x_, x));
-    PetscCall(mg_.solve_coarsest(coarse_b_, coarse_x_));
-    PetscCall(VecResetArray(coarse_b_));
-    PetscCall(VecResetArray(coarse_x_));
-    PetscFunctionReturn(0);
-  };
-  if (!coarse_error_) coarse_error_ = solve();
+  if (!coarse_error_) coarse_error_ = mg_.solve_coarsest(b, x);
 }
 
 PetscErrorCode HostLoopCycle::apply(const double* b, double* x) {

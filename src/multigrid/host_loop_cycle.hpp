@@ -6,7 +6,7 @@
 // (tests/multigrid/multigrid_test.cpp, "LoopCycle"): the same cycle to round-off.
 #pragma once
 
-#include <petscvec.h>
+#include <petscsys.h>
 
 #include <array>
 #include <memory>
@@ -18,17 +18,16 @@
 
 namespace hexcut::multigrid {
 
-class HostLoopCycle {
+class HostLoopCycle : public CycleBackend {
  public:
   /// The cycle of `mg` (after its update(); it must outlive this). Errors: those of
   /// Multigrid::loop_levels (PETSC_ERR_SUP where the loop-layer cycle does not apply).
   static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycle>* out);
-  ~HostLoopCycle();
   HostLoopCycle(const HostLoopCycle&) = delete;
   HostLoopCycle& operator=(const HostLoopCycle&) = delete;
 
   /// x = M^-1 b, one cycle from zero; b, x: 3 values per owned copy of level 0.
-  PetscErrorCode apply(const double* b, double* x);
+  PetscErrorCode apply(const double* b, double* x) override;
 
   // The executor of loop::cycle_level.
   int num_levels() const { return int(levels_.size()); }
@@ -50,7 +49,6 @@ class HostLoopCycle {
   Multigrid& mg_;
   std::vector<LoopLevelArrays> levels_;
   std::vector<std::array<std::vector<double>, 4>> work_;  // b, x, r, dir per level
-  Vec coarse_b_ = nullptr, coarse_x_ = nullptr;
   PetscErrorCode coarse_error_ = 0;
 };
 

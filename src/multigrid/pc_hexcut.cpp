@@ -223,6 +223,15 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
              PETSC_COMM_SELF, PETSC_ERR_ARG_INCOMP,
              "-gmg_interpolation smoothed needs -gmg_smoother chebyshev (its assembled levels have "
              "no colour sweeps)");
+  const char* backends[] = {"host", "host_loop", "cuda"};
+  choice = int(o.backend);
+  PetscCall(PetscOptionsEList(
+      "-gmg_backend",
+      "Where the cycle runs: host (PETSc vectors, every option, any ranks), host_loop (the "
+      "CUDA backend's loop-layer cycle on the host), cuda (device 0; one rank, Chebyshev, "
+      "trilinear)",
+      "", backends, 3, backends[choice], &choice, &set));
+  if (set) o.backend = Backend(choice);
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;
   PetscCall(PetscOptionsBool("-gmg_view", "Print the hierarchy after each set-up", "", flag, &flag,
                              nullptr));

@@ -1150,6 +1150,30 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
   EXPECT_EQ(ierr, PETSC_ERR_SUP);
 }
 
+TEST(Multigrid, HostLoopBackendSolvesLikeTheHostCycle) {
+  // -gmg_backend host_loop (the CUDA backend's cycle on the host) through whole static solves,
+  // chosen like any option: the same CG iterations and displacements as the default backend,
+  // on the uncut cube and the cut blade grid (W-cycle, the default after cuts).
+  PetscMPIInt size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  if (size > 1) GTEST_SKIP() << "one rank only (refused on more: LoopCycleOnTheHostIsTheCycle)";
+  for (bool cut : {false, true}) {
+    auto host = solve_static(blade_grid_cube(cut, 20.0), "-gmg_levels 3", cut);
+    auto loop =
+        solve_static(blade_grid_cube(cut, 20.0), "-gmg_levels 3 -gmg_backend host_loop", cut);
+    double d = 0, m = 0;
+    for (std::size_t i = 0; i < host.u.size(); ++i)
+      d = std::max(d, std::abs(host.u[i] - loop.u[i])), m = std::max(m, std::abs(host.u[i]));
+    std::printf("%s: %d / %d iterations, max |du| / max |u| = %.1e\n", cut ? "cut" : "uncut",
+                int(host.iterations), int(loop.iterations), d / m);
+    EXPECT_EQ(host.iterations, loop.iterations);
+    EXPECT_GT(m, 0.0);
+    EXPECT_LT(d / m, 1e-10);
+    MatDestroy(&host.coarsest);
+    MatDestroy(&loop.coarsest);
+  }
+}
+
 TEST(Multigrid, SmoothedInterpolationKeepsCutBladeGridsWithinOneAndAHalfTimesTheUncutCube) {
   // Issue 10's goal on the blade grids: CG iterations <= 1.5 x the uncut cube's. At the full
   // depth (the duplication rule off) the W-cycle with trilinear interpolation misses it (16
