@@ -545,26 +545,33 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
     a.view.presmooth = degree(l, opt_.presmooth);
     a.view.postsmooth = degree(l, opt_.postsmooth);
     if (l + 1 < L) {
-      // The trilinear weights the MAIJ interpolation holds, from canonical to local copies.
+      // The weights the cycle's interpolation holds (the scalar AIJ inside the MAIJ; one rank,
+      // so its rows and columns are the fine and coarse copies in the layouts' order).
       const auto& C = levels_[l + 1].layout();
-      std::vector<std::int32_t> fine_local(levels_[l].copies().num_copies, -1),
-          coarse_local(levels_[l + 1].copies().num_copies, -1);
-      for (std::int32_t i = 0; i < D.num_owned; ++i) fine_local[D.copies[i]] = i;
-      for (std::int32_t i = 0; i < C.num_owned; ++i) coarse_local[C.copies[i]] = i;
-      const auto I = hierarchy::interpolation(levels_[l], levels_[l + 1], 0);
+      Mat S;
+      PetscCall(MatMAIJGetAIJ(data_[l]->P, &S));
+      PetscInt rows;
+      const PetscInt *ia, *ja;
+      PetscBool done;
+      PetscCall(MatGetRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+      PetscCheck(done && rows == D.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                 "gmg: the interpolation's rows are not level %d's copies", l);
+      const PetscScalar* w;
+      PetscCall(MatSeqAIJGetArrayRead(S, &w));
       a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
       a.prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
       a.restrict_offset.assign(std::size_t(C.num_owned) + 1, 0);
-      for (std::size_t i = 0; i < I.fine.size(); ++i) {
-        const auto f = fine_local[I.fine[i]];
-        for (int j = 0, k = 0; j < 8 && I.coarse[i][j] >= 0; ++j) {
-          if (I.weight[i][j] == 0.0) continue;
-          const auto c = coarse_local[I.coarse[i][j]];
-          a.prolong_coarse[8 * std::size_t(f) + k] = c;
-          a.prolong_weight[8 * std::size_t(f) + k++] = I.weight[i][j];
-          ++a.restrict_offset[std::size_t(c) + 1];
+      for (PetscInt f = 0; f < rows; ++f) {
+        PetscCheck(ia[f + 1] - ia[f] <= 8, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                   "gmg: an interpolation row with more than 8 weights");
+        for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
+          a.prolong_coarse[8 * std::size_t(f) + (k - ia[f])] = std::int32_t(ja[k]);
+          a.prolong_weight[8 * std::size_t(f) + (k - ia[f])] = w[k];
+          ++a.restrict_offset[std::size_t(ja[k]) + 1];
         }
       }
+      PetscCall(MatSeqAIJRestoreArrayRead(S, &w));
+      PetscCall(MatRestoreRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
       for (std::int32_t c = 0; c < C.num_owned; ++c)
         a.restrict_offset[c + 1] += a.restrict_offset[c];
       a.restrict_fine.resize(std::size_t(a.restrict_offset.back()));
