@@ -310,6 +310,20 @@ double DeviceCycle::time_cycle(int repeat) {
   return median_seconds(repeat, [&] { multigrid::loop::cycle_level(*ex_, 0, true); });
 }
 
+void cell_rotations(const std::int32_t* corners, std::int64_t num_cells, std::int64_t num_copies,
+                    const double* u, double h, double* R) {
+  if (num_cells == 0) return;
+  const DeviceArray<std::int32_t> c(corners, 8 * std::size_t(num_cells));
+  const DeviceArray<double> U(u, 3 * std::size_t(num_copies));
+  DeviceArray<double> Rd(9 * std::size_t(num_cells));
+  constexpr int kThreads = 128;
+  for_each_index<<<unsigned((num_cells + kThreads - 1) / kThreads), kThreads>>>(
+      assembly::CellRotation{c.get(), U.get(), h, Rd.get()}, num_cells);
+  check(cudaGetLastError(), "kernel launch");
+  check(cudaDeviceSynchronize(), "kernel");
+  Rd.copy_to_host(R);
+}
+
 void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
                     const CellArrays& cells, const double* x, double* y) {
   if (cells.num_cells == 0) return;

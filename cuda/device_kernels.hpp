@@ -49,6 +49,13 @@ struct FineTables {
 void fine_apply_add(const assembly::FineCellData& d, const FineTables& tables,
                     const CellArrays& cells, const double* x, double* y);
 
+/// The corotational rotation update on device 0 (assembly::CellRotation, the host's body):
+/// R (9 per cell) from u (3 per local copy, `num_copies`) for `num_cells` cells of size h
+/// with 8 corners each; host arrays, copied in and out. Throws std::runtime_error on a CUDA
+/// error.
+void cell_rotations(const std::int32_t* corners, std::int64_t num_cells, std::int64_t num_copies,
+                    const double* u, double h, double* R);
+
 /// One level of the device cycle, host memory: the loop-layer arrays (mask, diagonal blocks,
 /// transfer from the next level; multigrid::Multigrid::loop_levels) and the level's cells:
 /// the fine cells on level 0 (`fine`, `tables`), packed Galerkin blocks below (double or

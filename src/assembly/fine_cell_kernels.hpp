@@ -10,27 +10,29 @@
 #include "element/corotation.hpp"
 #include "element/fine_cell.hpp"
 #include "element/host_device.hpp"
+#include "element/kinematics.hpp"
+#include "element/polar.hpp"
 #include "element/reference.hpp"
 #include "element/trilinear.hpp"
 
 namespace hexcut::assembly {
 
 struct FineCellData {
-  const std::int32_t* corners = nullptr;         // 8 local copies per cell
-  const std::int32_t* kind = nullptr;            // index into kind_stiffness, or -1
-  const double* kind_stiffness = nullptr;        // 576 per kind: h (lambda K_lambda + mu K_mu)
-  const std::int32_t* own = nullptr;             // index into own_stiffness, or -1 (null: none)
-  const double* own_stiffness = nullptr;         // 576 per cell without a kind, formed once
-  const double* lambda = nullptr;                // [Pa]
-  const double* mu = nullptr;                    // [Pa]
-  const double* rho = nullptr;                   // [kg/m^3]
-  const double* rotation = nullptr;              // 9 per cell, row-major; null: identity
+  const std::int32_t* corners = nullptr;   // 8 local copies per cell
+  const std::int32_t* kind = nullptr;      // index into kind_stiffness, or -1
+  const double* kind_stiffness = nullptr;  // 576 per kind: h (lambda K_lambda + mu K_mu)
+  const std::int32_t* own = nullptr;       // index into own_stiffness, or -1 (null: none)
+  const double* own_stiffness = nullptr;   // 576 per cell without a kind, formed once
+  const double* lambda = nullptr;          // [Pa]
+  const double* mu = nullptr;              // [Pa]
+  const double* rho = nullptr;             // [kg/m^3]
+  const double* rotation = nullptr;        // 9 per cell, row-major; null: identity
   const element::ReferenceMatrices* reference = nullptr;  // K_lambda, K_mu, consistent mass
-  double h = 1.0;                                // lattice spacing [m]
-  double w_stiffness = 1.0, w_mass = 0.0;        // A_e = w_K R K R^T + w_M M_e
+  double h = 1.0;                                         // lattice spacing [m]
+  double w_stiffness = 1.0, w_mass = 0.0;                 // A_e = w_K R K R^T + w_M M_e
   bool lumped_mass = true;
-  const double* mask = nullptr;                  // 3 per local copy: 1 free, 0 masked; null: none
-  const char* cell_masked = nullptr;             // per cell: has a masked DOF
+  const double* mask = nullptr;       // 3 per local copy: 1 free, 0 masked; null: none
+  const char* cell_masked = nullptr;  // per cell: has a masked DOF
 };
 
 /// The kernel view of cell e: its stiffness (the kind's, the cell's own formed once, or
@@ -130,5 +132,22 @@ HEXCUT_HD inline void fine_cell_matrix(const FineCellData& d, std::int32_t e, do
     for (int c = 0; c < 24; ++c)
       if (m[r] == 0.0 || m[c] == 0.0) A[24 * r + c] = 0.0;
 }
+
+/// The corotational rotation update (doc/theory.md, "Corotation"), per local cell e: R_e (9,
+/// row-major) = the rotation of the polar decomposition of the deformation gradient at the
+/// cell's centre (element::polar_rotation; inverted cells included), from the displacements
+/// u (3 per local copy) of its 8 corners; h the cell size [m].
+struct CellRotation {
+  const std::int32_t* corners;  // 8 per cell
+  const double* u;
+  double h;
+  double* R;
+  HEXCUT_HD void operator()(std::int32_t e) const {
+    double u24[24], F[9];
+    element::gather_cell(u, corners + 8 * std::int64_t(e), u24);
+    element::deformation_gradient_at_centre(u24, h, F);
+    element::polar_rotation(F, R + 9 * std::int64_t(e));
+  }
+};
 
 }  // namespace hexcut::assembly

@@ -4,6 +4,7 @@
 #include <map>
 
 #include "assembly/fine_cells.hpp"
+#include "backend/loop.hpp"
 #include "element/element.hpp"
 
 namespace hexcut::assembly {
@@ -61,12 +62,9 @@ void cell_rotations(const topology::DofLayout& D, const CellData& C, const doubl
                     double* R) {
   const std::size_t n = D.cells.size();
   if (C.rotation_group.empty()) {
-    for (std::size_t e = 0; e < n; ++e) {
-      double u24[24], F[9];
-      element::gather_cell(u_local, D.cell_corners[e].data(), u24);
-      element::deformation_gradient_at_centre(u24, C.h, F);
-      element::polar_rotation(F, &R[9 * e]);
-    }
+    // The loop layer's body, the one the CUDA backend launches (cuda::cell_rotations).
+    if (n)
+      backend::for_each(std::int64_t(n), CellRotation{D.cell_corners[0].data(), u_local, C.h, R});
     return;
   }
   // The mean of F over the group's cells weighted by their shear modulus (the polar factor

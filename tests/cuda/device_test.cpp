@@ -103,6 +103,35 @@ TEST(Device, FineOperatorApplyEqualsTheHost) {
   }
 }
 
+TEST(Device, RotationUpdateEqualsTheHost) {
+  // The corotational rotation update (assembly::CellRotation: the polar factor of F at each
+  // cell's centre) on the device against assembly::cell_rotations on the host, for large
+  // rotations and strains and for inverted cells (u = -2 x on part of the block: F = -I there,
+  // and sheared inversions around it), to 1e-12.
+  std::string why;
+  if (cuda::device_count(&why) == 0)
+    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 2");
+  const auto& D = job.model.layout;
+  std::vector<double> u(3 * std::size_t(D.num_local()));
+  for (std::int32_t i = 0; i < D.num_local(); ++i) {
+    const auto x = job.position(D.copies[i]);
+    const bool invert = x[0] < 0.3;
+    for (int c = 0; c < 3; ++c)
+      u[3 * i + c] = invert ? -2.0 * x[c] + 0.05 * x[(c + 1) % 3]
+                            : 0.8 * std::sin(3.0 * x[(c + 1) % 3]) * x[(c + 2) % 3];
+  }
+  const std::size_t n = D.cells.size();
+  std::vector<double> Rh(9 * n), Rd(9 * n);
+  assembly::cell_rotations(D, job.model.cells, u.data(), Rh.data());
+  cuda::cell_rotations(D.cell_corners[0].data(), std::int64_t(n), D.num_local(), u.data(),
+                       job.model.cells.h, Rd.data());
+  double d = 0;
+  for (std::size_t k = 0; k < Rh.size(); ++k) d = std::max(d, std::abs(Rh[k] - Rd[k]));
+  std::printf("rotations of %zu cells: max |R_device - R_host| = %.1e\n", n, d);
+  EXPECT_LT(d, 1e-12);
+}
+
 TEST(Device, CycleEqualsTheHostLoopCycle) {
   // The whole cycle on the device (cuda::MultigridDeviceCycle: Chebyshev, residuals,
   // transfers on the device, the coarsest level on the host) against the same cycle on the
