@@ -3,6 +3,7 @@ the solver's defaults are set on its KSP, not in the options database, so -pc_ty
 -ksp_type win, nothing of a solver's defaults stays in the database after its set-up, and
 hexcut's multigrid is a PC type like the others (-pc_type hexcut) whose -gmg_* options -help
 lists."""
+import os
 import re
 import sys
 
@@ -96,6 +97,22 @@ def main():
     rc, out, err = run([comp, "--check", "-gmg_interpolation", "smoothed"])
     check(rc == 2 and "not available with composite elements" in err,
           f"-gmg_interpolation smoothed with composite elements is exit 2 (rc {rc}) {err[-300:]}")
+    # -gmg_backend host_loop (the CUDA backend's cycle on the host) solves like the default
+    # backend; what it does not support yet is an input error naming it, before any work.
+    cantilever = os.path.join(os.environ["HEXCUT_SOURCE_DIR"], "input", "examples", "cantilever.yaml")
+    rc, out, err = run([cantilever, "-hexcut_output_directory", os.path.join(d, "host")])
+    its_host = iterations(out)
+    rc, out, err = run([cantilever, "-hexcut_output_directory", os.path.join(d, "host_loop"),
+                        "-gmg_backend", "host_loop"])
+    check(rc == 0 and its_host is not None and iterations(out) == its_host,
+          f"-gmg_backend host_loop: the host cycle's {its_host} iterations (rc {rc}, "
+          f"{iterations(out)}) {err[-300:]}")
+    for args, ranks, what in (([path, "-gmg_smoother", "gs"], 1, "-gmg_smoother gs"),
+                              ([path], 2, "more than one MPI rank"),
+                              ([comp], 1, "composite elements")):
+        rc, out, err = run([*args, "--check", "-gmg_backend", "host_loop"], ranks=ranks)
+        check(rc == 2 and f"-gmg_backend host_loop does not support {what}" in err,
+              f"-gmg_backend host_loop with {what} is exit 2 naming it (rc {rc}) {err[-300:]}")
     # Too deep a hierarchy is an input error naming the deepest possible; composite runs count
     # -gmg_levels from the composite level, one level below the hexahedra's level 0.
     most = {}
