@@ -113,6 +113,7 @@ class DeviceFineCells {
   }
   /// y += A x, x and y device arrays, launched colour by colour (no synchronization).
   void apply_add(const CellArrays& cells, const double* x, double* y) const {
+    if (cells.num_cells == 0) return;
     const backend::CellApplyAdd<assembly::FineCellOps> k{{d_}, d_.corners, x, y};
     launch_colours(k, order_->get(), cells);
   }
@@ -129,7 +130,9 @@ class DeviceFineCells {
 /// A level's packed Galerkin blocks on the device (double or float), its cells and colours.
 class DeviceStoredCells {
  public:
-  DeviceStoredCells(const double* pd, const float* ps, const CellArrays& cells) : cells_(cells) {
+  DeviceStoredCells(const double* pd, const float* ps, const CellArrays& cells)
+      : cells_(cells), offsets_(cells.colour_offset, cells.colour_offset + cells.num_colours + 1) {
+    cells_.colour_offset = offsets_.data();  // read at every launch: held here, not borrowed
     const auto n = std::size_t(cells.num_cells);
     const auto values = multigrid::kPackedSize * std::size_t(cells.num_blocks);
     packed_double_ = upload(&pd_, pd, values);
@@ -154,7 +157,8 @@ class DeviceStoredCells {
   }
 
  private:
-  CellArrays cells_;  // host arrays: the colour offsets each launch reads
+  CellArrays cells_;  // its colour_offset points into offsets_ (the others are not read again)
+  std::vector<std::int32_t> offsets_;
   std::unique_ptr<DeviceArray<double>> pd_;
   std::unique_ptr<DeviceArray<float>> ps_;
   std::unique_ptr<DeviceArray<std::int32_t>> c_, b_, o_;
@@ -203,7 +207,8 @@ double median_seconds(int repeat, const F& f) {
 /// The executor of multigrid::loop::cycle_level on the device (multigrid/loop_cycle.hpp).
 struct DeviceCycle::Executor {
   std::vector<multigrid::LoopLevel> levels;  // device pointers
-  std::vector<CellArrays> cells;             // host arrays (colour offsets)
+  std::vector<CellArrays> cells;             // level 0: colour_offset points into offsets0
+  std::vector<std::int32_t> offsets0;
   std::vector<std::unique_ptr<DeviceArray<double>>> doubles;
   std::vector<std::unique_ptr<DeviceArray<std::int32_t>>> ints;
   std::unique_ptr<DeviceFineCells> fine;
@@ -260,8 +265,8 @@ DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
     : ex_(std::make_unique<Executor>()) {
   auto& e = *ex_;
   const int L = int(levels.size());
-  if (L < 2 || !levels[0].fine)
-    throw std::runtime_error("DeviceCycle: needs >= 2 levels, fine cells on 0");
+  if (L < 1 || (L > 1 && !levels[0].fine))
+    throw std::runtime_error("DeviceCycle: needs a level, and fine cells on level 0 above others");
   e.gamma_ = gamma;
   e.coarse = std::move(solve_coarsest);
   e.levels.resize(L);
@@ -284,9 +289,12 @@ DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
       d.restrict_fine = e.up(&e.ints, h.restrict_fine, nr);
       d.restrict_weight = e.up(&e.doubles, h.restrict_weight, nr);
       e.cells[l] = levels[l].cells;
-      if (l == 0)
-        e.fine = std::make_unique<DeviceFineCells>(*levels[0].fine, levels[0].tables, e.cells[0]);
-      else
+      if (l == 0) {
+        const auto& c = levels[0].cells;
+        e.offsets0.assign(c.colour_offset, c.colour_offset + c.num_colours + 1);
+        e.fine = std::make_unique<DeviceFineCells>(*levels[0].fine, levels[0].tables, c);
+        e.cells[0].colour_offset = e.offsets0.data();
+      } else
         e.stored[l] = std::make_unique<DeviceStoredCells>(levels[l].packed_double,
                                                           levels[l].packed_single, e.cells[l]);
     }

@@ -77,32 +77,32 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
                "-gmg_backend cuda: no CUDA device (%s)", why.c_str());
     std::unique_ptr<MultigridDeviceCycle> c(new MultigridDeviceCycle(mg));
     PetscCall(mg.loop_levels(&c->arrays_));
-    const int L = mg.num_levels();
-    std::vector<DeviceCycleLevel> levels(L);
-    c->colours_.resize(L);
-    for (int l = 0; l < L; ++l) {
-      auto& d = levels[l];
-      d.loop = c->arrays_[l].view;
-      if (l + 1 == L) continue;  // the coarsest level is solved on the host
-      c->colours_[l] = backend::colour_cells(mg.cell_positions(l));
-      if (l == 0) {
-        const auto* fine = dynamic_cast<const assembly::FineCells*>(mg.cell_operator(0));
-        PetscCheck(fine, PETSC_COMM_SELF, PETSC_ERR_PLIB, "gmg: level 0 has no fine cells");
-        c->fine_data_ = fine->data();
-        d.cells = fine_cell_arrays(*fine, c->colours_[0], &d.tables);
-        d.fine = &c->fine_data_;
-      } else {
-        const auto& A = mg.stored_cells(l);
-        d.cells = CellArrays{std::int64_t(A.num_cells()),  A.corners(),
-                             c->colours_[l].num_colours(), c->colours_[l].offset.data(),
-                             c->colours_[l].cell.data(),   A.layout().num_local(),
-                             std::int64_t(A.num_blocks()), A.block_of()};
-        d.packed_double = A.packed_double();
-        d.packed_single = A.packed_single();
+    try {  // the uploads and host containers below throw; PETSc errors stay codes
+      const int L = mg.num_levels();
+      std::vector<DeviceCycleLevel> levels(L);
+      c->colours_.resize(L);
+      for (int l = 0; l < L; ++l) {
+        auto& d = levels[l];
+        d.loop = c->arrays_[l].view;
+        if (l + 1 == L) continue;  // the coarsest level is solved on the host
+        c->colours_[l] = backend::colour_cells(mg.cell_positions(l));
+        if (l == 0) {
+          const auto* fine = dynamic_cast<const assembly::FineCells*>(mg.cell_operator(0));
+          PetscCheck(fine, PETSC_COMM_SELF, PETSC_ERR_PLIB, "gmg: level 0 has no fine cells");
+          c->fine_data_ = fine->data();
+          d.cells = fine_cell_arrays(*fine, c->colours_[0], &d.tables);
+          d.fine = &c->fine_data_;
+        } else {
+          const auto& A = mg.stored_cells(l);
+          d.cells = CellArrays{std::int64_t(A.num_cells()),  A.corners(),
+                               c->colours_[l].num_colours(), c->colours_[l].offset.data(),
+                               c->colours_[l].cell.data(),   A.layout().num_local(),
+                               std::int64_t(A.num_blocks()), A.block_of()};
+          d.packed_double = A.packed_double();
+          d.packed_single = A.packed_single();
+        }
       }
-    }
-    auto* self = c.get();
-    try {
+      auto* self = c.get();
       c->cycle_ = std::make_unique<DeviceCycle>(
           levels, mg.cycle_gamma(), [self](const double* b, double* x) {
             self->coarse_error_ = self->mg_.solve_coarsest(b, x);
@@ -138,7 +138,7 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
   PetscErrorCode coarse_error_ = 0;
 };
 
-/// The factory hexcut installs with multigrid::set_device_cycle_factory.
+/// The factory hexcut installs with multigrid::set_device_cycle_factory (with device_count).
 inline PetscErrorCode device_cycle(multigrid::Multigrid& mg,
                                    std::unique_ptr<multigrid::CycleBackend>* out) {
   return MultigridDeviceCycle::create(mg, out);

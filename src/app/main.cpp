@@ -109,7 +109,8 @@ int main(int argc, char** argv) {
   }
 
 #ifdef HEXCUT_HAVE_CUDA
-  hexcut::multigrid::set_device_cycle_factory(hexcut::cuda::device_cycle);
+  hexcut::multigrid::set_device_cycle_factory(hexcut::cuda::device_cycle,
+                                              hexcut::cuda::device_count);
 #endif
   int code = hexcut::kExitOk, rank = 0, size = 1;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);

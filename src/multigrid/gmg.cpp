@@ -20,10 +20,17 @@ namespace hexcut::multigrid {
 
 namespace {
 CycleBackendFactory the_device_cycle_factory = nullptr;
+DeviceCount the_device_count = nullptr;
 }  // namespace
 
-void set_device_cycle_factory(CycleBackendFactory factory) {
+void set_device_cycle_factory(CycleBackendFactory factory, DeviceCount count) {
   the_device_cycle_factory = factory;
+  the_device_count = count;
+}
+int device_count(std::string* why) {
+  if (the_device_count) return the_device_count(why);
+  if (why) *why = "hexcut was built without its CUDA backend";
+  return 0;
 }
 CycleBackendFactory device_cycle_factory() {
   return the_device_cycle_factory;
@@ -531,10 +538,14 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
              "backend does",
              why);
   const int L = num_levels();
-  out->assign(L, LoopLevelArrays{});
+  out->clear();
+  out->resize(L);
   for (int l = 0; l < L; ++l) {
     auto& a = (*out)[l];
     const auto& D = levels_[l].layout();
+    // One rank: the cells' corners index the owned copies only, which the arrays hold.
+    PetscCheck(D.num_local() == D.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "gmg: level %d has ghost copies on one rank", l);
     const PetscScalar* m;
     PetscCall(VecGetArrayRead(data_[l]->mask, &m));
     a.mask.assign(m, m + 3 * std::size_t(D.num_owned));
@@ -554,16 +565,20 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
       const PetscInt *ia, *ja;
       PetscBool done;
       PetscCall(MatGetRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-      PetscCheck(done && rows == D.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                 "gmg: the interpolation's rows are not level %d's copies", l);
+      bool shape_ok = done && rows == D.num_owned;
+      for (PetscInt f = 0; shape_ok && f < rows; ++f) shape_ok = ia[f + 1] - ia[f] <= 8;
+      if (!shape_ok) {
+        if (done)
+          PetscCall(MatRestoreRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+        SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                "gmg: level %d's interpolation is not one row of at most 8 weights per copy", l);
+      }
       const PetscScalar* w;
       PetscCall(MatSeqAIJGetArrayRead(S, &w));
       a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
       a.prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
       a.restrict_offset.assign(std::size_t(C.num_owned) + 1, 0);
       for (PetscInt f = 0; f < rows; ++f) {
-        PetscCheck(ia[f + 1] - ia[f] <= 8, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                   "gmg: an interpolation row with more than 8 weights");
         for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
           a.prolong_coarse[8 * std::size_t(f) + (k - ia[f])] = std::int32_t(ja[k]);
           a.prolong_weight[8 * std::size_t(f) + (k - ia[f])] = w[k];
@@ -665,6 +680,8 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
                                  const std::vector<PetscInt>& constrained_rows) {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(ev_setup_, 0, 0, 0, 0));
+  // A backend cycle holds copies of the levels: none survives an update (nor a failed one).
+  backend_cycle_.reset();
   const int L = num_levels();
   // Anything but rotations changed: rebuild everything (a collective decision).
   int full = !built_ || w.stiffness != weights_.stiffness || w.mass != weights_.mass ||
@@ -826,7 +843,6 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   built_ = true;
   // The other backends hold copies of (or pointers into) the levels: made again after every
   // update, rotation-only ones included.
-  backend_cycle_.reset();
   if (opt_.backend == Backend::host_loop) {
     std::unique_ptr<HostLoopCycle> c;
     PetscCall(HostLoopCycle::create(*this, &c));

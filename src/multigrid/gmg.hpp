@@ -20,6 +20,7 @@
 #include <petscsf.h>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "assembly/fine_cells.hpp"
@@ -62,8 +63,12 @@ class CycleBackend {
 /// installs it when hexcut is built with CUDA (cuda/device_backend.hpp, device_cycle); without
 /// it, -gmg_backend cuda is refused.
 using CycleBackendFactory = PetscErrorCode (*)(Multigrid& mg, std::unique_ptr<CycleBackend>* out);
-void set_device_cycle_factory(CycleBackendFactory factory);
+/// How many devices the backend can use (0: none, with the reason in *why).
+using DeviceCount = int (*)(std::string* why);
+void set_device_cycle_factory(CycleBackendFactory factory, DeviceCount count);
 CycleBackendFactory device_cycle_factory();
+/// Devices the installed backend sees (0 and a reason when none is installed).
+int device_count(std::string* why);
 
 /// Interpolation between levels (doc/theory.md, "Coarse spaces after cuts and on thin pieces").
 /// smoothed: P <- (I - omega D^-1 A) P on the rows near irregular coarse cells; the levels

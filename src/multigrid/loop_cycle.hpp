@@ -43,6 +43,12 @@ struct LoopLevel {
 /// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
 /// diagonal blocks stay the Multigrid's (diag_inv points into it).
 struct LoopLevelArrays {
+  LoopLevelArrays() = default;
+  // `view` points into the vectors: a move keeps their buffers, a copy would not.
+  LoopLevelArrays(const LoopLevelArrays&) = delete;
+  LoopLevelArrays& operator=(const LoopLevelArrays&) = delete;
+  LoopLevelArrays(LoopLevelArrays&&) = default;
+  LoopLevelArrays& operator=(LoopLevelArrays&&) = default;
   LoopLevel view;  // its pointers into the vectors below
   std::vector<double> mask;
   std::vector<std::int32_t> prolong_coarse;

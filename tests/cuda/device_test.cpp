@@ -169,7 +169,7 @@ TEST(Device, SolveWithTheCudaBackendEqualsTheHost) {
   std::string why;
   if (cuda::device_count(&why) == 0)
     GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
-  multigrid::set_device_cycle_factory(cuda::device_cycle);
+  multigrid::set_device_cycle_factory(cuda::device_cycle, cuda::device_count);
   PetscInt its[2];
   std::vector<double> u[2];
   const char* options[2] = {"-gmg_levels 3", "-gmg_levels 3 -gmg_backend cuda"};
