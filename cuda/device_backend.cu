@@ -174,6 +174,15 @@ __global__ void for_each_index(Kernel k, std::int64_t n) {
   if (i < n) k(std::int32_t(i));
 }
 
+/// for_each_index over 0..n-1 (nothing for n = 0); no synchronization.
+template <class Kernel>
+void launch_index(std::int64_t n, const Kernel& k) {
+  if (n == 0) return;
+  constexpr int kThreads = 256;
+  for_each_index<<<unsigned((n + kThreads - 1) / kThreads), kThreads>>>(k, n);
+  check(cudaGetLastError(), "kernel launch");
+}
+
 __global__ void copy_kernel(const double* x, double* y, std::size_t n) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) y[i] = x[i];
@@ -218,11 +227,11 @@ struct DeviceCycle::Executor {
   std::function<void(const double*, double*)> coarse;
   std::vector<double> coarse_b, coarse_x;  // host copies of the coarsest level's b and x
 
+  /// upload() into a new slot of `owner`.
   template <class T>
   T* up(std::vector<std::unique_ptr<DeviceArray<T>>>* owner, const T* host, std::size_t n) {
-    if (!host) return nullptr;
-    owner->push_back(std::make_unique<DeviceArray<T>>(host, n));
-    return owner->back()->get();
+    owner->emplace_back();
+    return upload(&owner->back(), host, n);
   }
   double* zeros(std::size_t n) {
     doubles.push_back(std::make_unique<DeviceArray<double>>(n));
@@ -239,10 +248,7 @@ struct DeviceCycle::Executor {
   double* dir(int l) { return work[l][3]; }
   template <class Kernel>
   void for_each(std::int64_t n, const Kernel& k) {
-    if (n == 0) return;
-    constexpr int kThreads = 256;
-    for_each_index<<<unsigned((n + kThreads - 1) / kThreads), kThreads>>>(k, n);
-    check(cudaGetLastError(), "kernel launch");
+    launch_index(n, k);
   }
   void apply_add(int l, const double* xd, double* yd) {
     if (l == 0)
@@ -324,10 +330,7 @@ void cell_rotations(const std::int32_t* corners, std::int64_t num_cells, std::in
   const DeviceArray<std::int32_t> c(corners, 8 * std::size_t(num_cells));
   const DeviceArray<double> U(u, 3 * std::size_t(num_copies));
   DeviceArray<double> Rd(9 * std::size_t(num_cells));
-  constexpr int kThreads = 128;
-  for_each_index<<<unsigned((num_cells + kThreads - 1) / kThreads), kThreads>>>(
-      assembly::CellRotation{c.get(), U.get(), h, Rd.get()}, num_cells);
-  check(cudaGetLastError(), "kernel launch");
+  launch_index(num_cells, assembly::CellRotation{c.get(), U.get(), h, Rd.get()});
   check(cudaDeviceSynchronize(), "kernel");
   Rd.copy_to_host(R);
 }

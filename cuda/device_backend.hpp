@@ -22,11 +22,18 @@ namespace hexcut::cuda {
 /// 3 values per local copy of A's layout (host arrays, copied in and out once per call).
 /// `colours`: backend::colour_cells of A's cells' level positions. Throws
 /// std::runtime_error with the CUDA runtime's message when a call fails.
+/// The stored cells `A` as the device functions take them, with `colours` (colour_cells of
+/// their level positions; both must outlive the result).
+inline CellArrays stored_cell_arrays(const multigrid::StoredCells& A,
+                                     const backend::CellColours& colours) {
+  return CellArrays{std::int64_t(A.num_cells()),  A.corners(),         colours.num_colours(),
+                    colours.offset.data(),        colours.cell.data(), A.layout().num_local(),
+                    std::int64_t(A.num_blocks()), A.block_of()};
+}
+
 inline void stored_apply_add(const multigrid::StoredCells& A, const backend::CellColours& colours,
                              const double* x, double* y) {
-  const CellArrays cells{std::int64_t(A.num_cells()),  A.corners(),         colours.num_colours(),
-                         colours.offset.data(),        colours.cell.data(), A.layout().num_local(),
-                         std::int64_t(A.num_blocks()), A.block_of()};
+  const CellArrays cells = stored_cell_arrays(A, colours);
   if (A.packed_double())
     packed_apply_add(A.packed_double(), cells, x, y);
   else
@@ -67,14 +74,11 @@ inline void fine_apply_add(const assembly::FineCells& A, const backend::CellColo
 class MultigridDeviceCycle : public multigrid::CycleBackend {
  public:
   /// Errors: those of Multigrid::loop_levels (PETSC_ERR_SUP with the reason where the loop-
-  /// layer cycle does not apply), PETSC_ERR_SUP when no CUDA device is visible (with the
-  /// runtime's reason), PETSC_ERR_LIB with the CUDA runtime's message.
+  /// layer cycle does not apply), PETSC_ERR_LIB with the CUDA runtime's message (also when no
+  /// device is visible: Multigrid::update checks multigrid::device_count first).
   static PetscErrorCode create(multigrid::Multigrid& mg,
                                std::unique_ptr<multigrid::CycleBackend>* out) {
     PetscFunctionBeginUser;
-    std::string why;
-    PetscCheck(device_count(&why) > 0, PETSC_COMM_SELF, PETSC_ERR_SUP,
-               "-gmg_backend cuda: no CUDA device (%s)", why.c_str());
     std::unique_ptr<MultigridDeviceCycle> c(new MultigridDeviceCycle(mg));
     PetscCall(mg.loop_levels(&c->arrays_));
     try {  // the uploads and host containers below throw; PETSc errors stay codes
@@ -94,10 +98,7 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
           d.fine = &c->fine_data_;
         } else {
           const auto& A = mg.stored_cells(l);
-          d.cells = CellArrays{std::int64_t(A.num_cells()),  A.corners(),
-                               c->colours_[l].num_colours(), c->colours_[l].offset.data(),
-                               c->colours_[l].cell.data(),   A.layout().num_local(),
-                               std::int64_t(A.num_blocks()), A.block_of()};
+          d.cells = stored_cell_arrays(A, c->colours_[l]);
           d.packed_double = A.packed_double();
           d.packed_single = A.packed_single();
         }

@@ -7,8 +7,6 @@
 // none. The build compiles this file for sm_80 and sm_90 and fails when a stack frame
 // exceeds the limit (cuda/CMakeLists.txt). The wrappers are not a backend and are never
 // launched: there are no launch configurations, no colouring of scatters, and no host code.
-#include "assembly/fine_cell_kernels.hpp"
-#include "backend/restriction.hpp"
 #include "element/corotation.hpp"
 #include "element/fine_cell.hpp"
 #include "element/kinematics.hpp"
@@ -17,6 +15,8 @@
 #include "element/reference.hpp"
 #include "element/trilinear.hpp"
 #include "multigrid/kernels.hpp"
+#include "assembly/fine_cell_kernels.hpp"
+#include "backend/restriction.hpp"
 #include "multigrid/stored_cell_kernels.hpp"
 
 namespace el = hexcut::element;
@@ -26,9 +26,7 @@ namespace be = hexcut::backend;
 
 namespace {
 
-__device__ int thread_index() {
-  return int(blockIdx.x * blockDim.x + threadIdx.x);
-}
+__device__ int thread_index() { return int(blockIdx.x * blockDim.x + threadIdx.x); }
 
 /// The fine cell e of the arrays: its rotation (or none), its own stiffness when
 /// `own_stiffness` is set (otherwise the shared K), consistent mass when M is given.
@@ -168,8 +166,8 @@ __global__ void check_rotate_element_matrix(const double* R, const double* K, do
   el::rotate_element_matrix(R + 9 * e, K, RKRt + el::kElementMatrixSize * e);
 }
 
-__global__ void check_corotated_displacement(const double* R, const double* x24, const double* u,
-                                             double* d) {
+__global__ void check_corotated_displacement(const double* R, const double* x24,
+                                             const double* u, double* d) {
   const int e = thread_index();
   el::corotated_displacement(R + 9 * e, x24, u + 24 * e, d + 24 * e);
 }
@@ -186,8 +184,8 @@ __global__ void check_element_force(const double* R, const double* K, const doub
   el::element_force(R + 9 * e, K, x24, u + 24 * e, f + 24 * e);
 }
 
-__global__ void check_current_corotated_displacement(double h, const double* x24, const double* u,
-                                                     double* d) {
+__global__ void check_current_corotated_displacement(double h, const double* x24,
+                                                     const double* u, double* d) {
   const int e = thread_index();
   el::current_corotated_displacement(h, x24, u + 24 * e, d + 24 * e);
 }
@@ -202,8 +200,8 @@ __global__ void check_newmark_coefficients(const double* dt, double* a) {
   a[3 * t + 2] = c.a2;
 }
 
-__global__ void check_newmark_history(double dt, const double* u, const double* v, const double* a,
-                                      double* mass_hist, double* damp_hist) {
+__global__ void check_newmark_history(double dt, const double* u, const double* v,
+                                      const double* a, double* mass_hist, double* damp_hist) {
   const int i = 3 * thread_index();
   el::newmark_history(3, dt, u + i, v + i, a + i, mass_hist + i, damp_hist + i);
 }
@@ -259,7 +257,8 @@ __global__ void check_fine_diagonal_block(const double* K, const double* R, doub
 // --- multigrid/kernels.hpp ---
 
 /// One coarse cell per thread: its packed block from its 8 children's full blocks.
-__global__ void check_galerkin_accumulate(const double* children, double* parent, double* packed) {
+__global__ void check_galerkin_accumulate(const double* children, double* parent,
+                                          double* packed) {
   const int C = thread_index();
   double* A = parent + el::kElementMatrixSize * C;
   for (int o = 0; o < 8; ++o)
@@ -337,8 +336,8 @@ __global__ void check_fine_cell_view(as::FineCellData d, double* out) {
 
 // --- element/fine_cell.hpp: the stiffness of a cell without a kind, not formed ---
 
-__global__ void check_stiffness_rows(const double* K_lambda, const double* K_mu, const double* k,
-                                     const double* x, double* y) {
+__global__ void check_stiffness_rows(const double* K_lambda, const double* K_mu,
+                                     const double* k, const double* x, double* y) {
   const int t = thread_index(), e = t / 8, q = t % 8;
   el::FineCell c{K_lambda, nullptr, 1.0, 0.0, nullptr, K_mu, k[2 * e], k[2 * e + 1]};
   el::stiffness_rows(c, K_lambda + 24 * 3 * q, q, x + 24 * e, y + 3 * t);

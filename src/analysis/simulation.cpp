@@ -71,14 +71,9 @@ PetscErrorCode check_backend(MPI_Comm comm, const multigrid::Options& o) {
   PetscFunctionBeginUser;
   if (o.backend == multigrid::Backend::host) PetscFunctionReturn(0);
   const char* name = o.backend == multigrid::Backend::cuda ? "cuda" : "host_loop";
-  if (o.backend == multigrid::Backend::cuda && !multigrid::device_cycle_factory())
-    throw InputError(
-        "-gmg_backend cuda: this hexcut was built without its CUDA backend (nvcc not found at "
-        "configure time, or HEXCUT_CUDA=OFF)");
   std::string no_device;
   if (o.backend == multigrid::Backend::cuda && multigrid::device_count(&no_device) == 0)
-    throw InputError("-gmg_backend cuda: no CUDA device is visible (" + no_device +
-                     "); use -gmg_backend host");
+    throw InputError("-gmg_backend cuda: " + no_device + "; use -gmg_backend host");
   PetscMPIInt size;
   PetscCallMPI(MPI_Comm_size(comm, &size));
   if (const char* why = multigrid::loop_cycle_refusal(o, size))

@@ -18,21 +18,21 @@
 namespace hexcut::assembly {
 
 struct FineCellData {
-  const std::int32_t* corners = nullptr;   // 8 local copies per cell
-  const std::int32_t* kind = nullptr;      // index into kind_stiffness, or -1
-  const double* kind_stiffness = nullptr;  // 576 per kind: h (lambda K_lambda + mu K_mu)
-  const std::int32_t* own = nullptr;       // index into own_stiffness, or -1 (null: none)
-  const double* own_stiffness = nullptr;   // 576 per cell without a kind, formed once
-  const double* lambda = nullptr;          // [Pa]
-  const double* mu = nullptr;              // [Pa]
-  const double* rho = nullptr;             // [kg/m^3]
-  const double* rotation = nullptr;        // 9 per cell, row-major; null: identity
+  const std::int32_t* corners = nullptr;         // 8 local copies per cell
+  const std::int32_t* kind = nullptr;            // index into kind_stiffness, or -1
+  const double* kind_stiffness = nullptr;        // 576 per kind: h (lambda K_lambda + mu K_mu)
+  const std::int32_t* own = nullptr;             // index into own_stiffness, or -1 (null: none)
+  const double* own_stiffness = nullptr;         // 576 per cell without a kind, formed once
+  const double* lambda = nullptr;                // [Pa]
+  const double* mu = nullptr;                    // [Pa]
+  const double* rho = nullptr;                   // [kg/m^3]
+  const double* rotation = nullptr;              // 9 per cell, row-major; null: identity
   const element::ReferenceMatrices* reference = nullptr;  // K_lambda, K_mu, consistent mass
-  double h = 1.0;                                         // lattice spacing [m]
-  double w_stiffness = 1.0, w_mass = 0.0;                 // A_e = w_K R K R^T + w_M M_e
+  double h = 1.0;                                // lattice spacing [m]
+  double w_stiffness = 1.0, w_mass = 0.0;        // A_e = w_K R K R^T + w_M M_e
   bool lumped_mass = true;
-  const double* mask = nullptr;       // 3 per local copy: 1 free, 0 masked; null: none
-  const char* cell_masked = nullptr;  // per cell: has a masked DOF
+  const double* mask = nullptr;                  // 3 per local copy: 1 free, 0 masked; null: none
+  const char* cell_masked = nullptr;             // per cell: has a masked DOF
 };
 
 /// The kernel view of cell e: its stiffness (the kind's, the cell's own formed once, or

@@ -28,9 +28,17 @@ void set_device_cycle_factory(CycleBackendFactory factory, DeviceCount count) {
   the_device_count = count;
 }
 int device_count(std::string* why) {
-  if (the_device_count) return the_device_count(why);
-  if (why) *why = "hexcut was built without its CUDA backend";
-  return 0;
+  if (!the_device_count) {
+    if (why)
+      *why =
+          "this hexcut was built without its CUDA backend (nvcc not found at configure "
+          "time, or HEXCUT_CUDA=OFF)";
+    return 0;
+  }
+  std::string runtime;
+  const int n = the_device_count(&runtime);
+  if (n == 0 && why) *why = "no CUDA device is visible (" + runtime + ")";
+  return n;
 }
 CycleBackendFactory device_cycle_factory() {
   return the_device_cycle_factory;
@@ -848,9 +856,9 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
     PetscCall(HostLoopCycle::create(*this, &c));
     backend_cycle_ = std::move(c);
   } else if (opt_.backend == Backend::cuda) {
-    PetscCheck(device_cycle_factory(), comm_, PETSC_ERR_SUP,
-               "gmg: -gmg_backend cuda: this hexcut was built without its CUDA backend (nvcc "
-               "not found at configure time, or HEXCUT_CUDA=OFF)");
+    std::string why;
+    PetscCheck(device_count(&why) > 0, comm_, PETSC_ERR_SUP, "gmg: -gmg_backend cuda: %s",
+               why.c_str());
     PetscCall(device_cycle_factory()(*this, &backend_cycle_));
   }
   PetscCall(PetscLogEventEnd(ev_setup_, 0, 0, 0, 0));

@@ -67,7 +67,8 @@ using CycleBackendFactory = PetscErrorCode (*)(Multigrid& mg, std::unique_ptr<Cy
 using DeviceCount = int (*)(std::string* why);
 void set_device_cycle_factory(CycleBackendFactory factory, DeviceCount count);
 CycleBackendFactory device_cycle_factory();
-/// Devices the installed backend sees (0 and a reason when none is installed).
+/// Devices the installed backend sees; 0 with the reason in *why (may be null) when none is
+/// visible (the runtime's words) or no backend is installed (a build without nvcc).
 int device_count(std::string* why);
 
 /// Interpolation between levels (doc/theory.md, "Coarse spaces after cuts and on thin pieces").

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <petscksp.h>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -131,6 +133,20 @@ inline double rel_max_difference(Vec a, Vec b) {
   VecNorm(a, NORM_INFINITY, &na);
   VecDestroy(&d);
   return nd / na;
+}
+
+/// max |a_i - b_i| and max |a_i| over n values of two arrays.
+struct MaxDifference {
+  double difference = 0, magnitude = 0;
+  double relative() const { return difference / magnitude; }
+};
+inline MaxDifference max_difference(const double* a, const double* b, std::size_t n) {
+  MaxDifference d;
+  for (std::size_t i = 0; i < n; ++i) {
+    d.difference = std::max(d.difference, std::abs(a[i] - b[i]));
+    d.magnitude = std::max(d.magnitude, std::abs(a[i]));
+  }
+  return d;
 }
 
 /// Sum over all DOFs of a global vector, per component (x, y, z): a resultant force or

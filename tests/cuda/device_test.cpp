@@ -23,6 +23,14 @@ const std::string kBlock =
     "analysis: {type: static}\n"
     "solver: {type: gmg}\n";
 
+/// Skips the test where no CUDA device is visible, with the runtime's reason.
+#define SKIP_WITHOUT_A_DEVICE()                                                       \
+  do {                                                                                \
+    std::string why;                                                                  \
+    if (cuda::device_count(&why) == 0)                                                \
+      GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped"; \
+  } while (0)
+
 /// max |y_device - y_host| / max |y_host| for y = 0.5 + A x, x a fixed smooth field of n
 /// values, `host` and `device` each y += A x.
 template <class Host, class Device>
@@ -31,16 +39,11 @@ double device_host_difference(std::size_t n, const Host& host, const Device& dev
   for (std::size_t i = 0; i < n; ++i) x[i] = std::sin(0.37 * double(i)) + 0.1;
   host(x.data(), yh.data());
   device(x.data(), yd.data());
-  double d = 0, m = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    d = std::max(d, std::abs(yh[i] - yd[i])), m = std::max(m, std::abs(yh[i]));
-  return d / m;
+  return max_difference(yh.data(), yd.data(), n).relative();
 }
 
 TEST(Device, StoredCellsApplyEqualsTheHost) {
-  std::string why;
-  if (cuda::device_count(&why) == 0)
-    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  SKIP_WITHOUT_A_DEVICE();
   for (const char* options : {"-gmg_levels 3", "-gmg_levels 3 -gmg_precision single"}) {
     Job job(PETSC_COMM_WORLD, kBlock, 8, options);
     auto& mg = *job.sim->multigrid();
@@ -63,9 +66,7 @@ TEST(Device, FineOperatorApplyEqualsTheHost) {
   // holed two-material block: every path of the body (a kind's stiffness; cells without a
   // kind, formed once or applied from the reference matrices; rotations; lumped and
   // consistent mass; a Dirichlet mask), to 1e-12 relative.
-  std::string why;
-  if (cuda::device_count(&why) == 0)
-    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  SKIP_WITHOUT_A_DEVICE();
   Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 2");
   const auto& layout = job.model.layout;
   const auto colours = backend::colour_cells(job.sim->multigrid()->cell_positions(0));
@@ -108,9 +109,7 @@ TEST(Device, RotationUpdateEqualsTheHost) {
   // cell's centre) on the device against assembly::cell_rotations on the host, for large
   // rotations and strains and for inverted cells (u = -2 x on part of the block: F = -I there,
   // and sheared inversions around it), to 1e-12.
-  std::string why;
-  if (cuda::device_count(&why) == 0)
-    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  SKIP_WITHOUT_A_DEVICE();
   Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 2");
   const auto& D = job.model.layout;
   std::vector<double> u(3 * std::size_t(D.num_local()));
@@ -126,8 +125,7 @@ TEST(Device, RotationUpdateEqualsTheHost) {
   assembly::cell_rotations(D, job.model.cells, u.data(), Rh.data());
   cuda::cell_rotations(D.cell_corners[0].data(), std::int64_t(n), D.num_local(), u.data(),
                        job.model.cells.h, Rd.data());
-  double d = 0;
-  for (std::size_t k = 0; k < Rh.size(); ++k) d = std::max(d, std::abs(Rh[k] - Rd[k]));
+  const double d = max_difference(Rh.data(), Rd.data(), Rh.size()).difference;
   std::printf("rotations of %zu cells: max |R_device - R_host| = %.1e\n", n, d);
   EXPECT_LT(d, 1e-12);
 }
@@ -137,9 +135,7 @@ TEST(Device, CycleEqualsTheHostLoopCycle) {
   // transfers on the device, the coarsest level on the host) against the same cycle on the
   // host backend (multigrid::HostLoopCycle, itself equal to Multigrid::cycle): V and W,
   // double and float coarse blocks, on the corotated holed two-material block, 1e-12 relative.
-  std::string why;
-  if (cuda::device_count(&why) == 0)
-    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  SKIP_WITHOUT_A_DEVICE();
   for (const char* options :
        {"-gmg_levels 3", "-gmg_levels 3 -gmg_cycle w", "-gmg_levels 3 -gmg_precision single"}) {
     Job job(PETSC_COMM_WORLD, kBlock, 8, options);
@@ -154,21 +150,18 @@ TEST(Device, CycleEqualsTheHostLoopCycle) {
     for (std::size_t i = 0; i < n; ++i) b[i] = std::sin(0.37 * double(i)) + 0.1;
     HEXCUT_CALL(host->apply(b.data(), xh.data()));
     HEXCUT_CALL(device->apply(b.data(), xd.data()));
-    double d = 0, m = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      d = std::max(d, std::abs(xh[i] - xd[i])), m = std::max(m, std::abs(xh[i]));
-    std::printf("cycle, %s: max |x_device - x_host| / max |x_host| = %.1e\n", options, d / m);
-    EXPECT_GT(m, 0.0);
-    EXPECT_LT(d / m, 1e-12) << options;
+    const auto d = max_difference(xh.data(), xd.data(), n);
+    std::printf("cycle, %s: max |x_device - x_host| / max |x_host| = %.1e\n", options,
+                d.relative());
+    EXPECT_GT(d.magnitude, 0.0);
+    EXPECT_LT(d.relative(), 1e-12) << options;
   }
 }
 
 TEST(Device, SolveWithTheCudaBackendEqualsTheHost) {
   // -gmg_backend cuda through the whole static solve of the block: the same CG iterations
   // and the same displacements (to the solver's tolerance) as the host cycle.
-  std::string why;
-  if (cuda::device_count(&why) == 0)
-    GTEST_SKIP() << "no CUDA device (" << why << "): the device tests are skipped";
+  SKIP_WITHOUT_A_DEVICE();
   multigrid::set_device_cycle_factory(cuda::device_cycle, cuda::device_count);
   PetscInt its[2];
   std::vector<double> u[2];
@@ -179,13 +172,12 @@ TEST(Device, SolveWithTheCudaBackendEqualsTheHost) {
     KSPGetIterationNumber(job.sim->ksp(), &its[k]);
     u[k] = job.canonical(job.state.u);
   }
-  double d = 0, m = 0;
-  for (std::size_t i = 0; i < u[0].size(); ++i)
-    d = std::max(d, std::abs(u[0][i] - u[1][i])), m = std::max(m, std::abs(u[0][i]));
+  ASSERT_EQ(u[0].size(), u[1].size());
+  const double d = max_difference(u[0].data(), u[1].data(), u[0].size()).relative();
   std::printf("solve: %d iterations (host) / %d (cuda), max |du| / max |u| = %.1e\n", int(its[0]),
-              int(its[1]), d / m);
+              int(its[1]), d);
   EXPECT_EQ(its[0], its[1]);
-  EXPECT_LT(d / m, 1e-8);
+  EXPECT_LT(d, 1e-8);
 }
 
 }  // namespace
