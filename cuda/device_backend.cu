@@ -239,6 +239,7 @@ struct DeviceCycle::Executor {
     return doubles.back()->get();
   }
 
+  using Scalar = double;  // the device cycle is double only (single: not yet)
   int num_levels() const { return int(levels.size()); }
   int gamma() const { return gamma_; }
   const multigrid::LoopLevel& level(int l) const { return levels[l]; }

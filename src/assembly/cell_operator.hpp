@@ -7,7 +7,8 @@
 //
 // The same few actions serve the assembled path (hypre, GAMG, direct), the matrix-free MatShell,
 // every multigrid level and its coarsest matrix:
-//   apply_add           y += A x on local vectors (owned + ghost copies, 3 DOFs each)
+//   apply_add           y += A x on local vectors (owned + ghost copies, 3 DOFs each;
+//                       double, or float for the single-precision loop-layer cycle)
 //   apply_add_colour    the rows of one parity colour only (Gauss-Seidel)
 //   add_diagonal_blocks the 3x3 point-block diagonal (Jacobi, Chebyshev)
 //   cell_matrix         A_e itself (assembly into AIJ, Galerkin products)
@@ -48,6 +49,10 @@ class CellOperator {
   /// y += A x; x, y: 3 values per local copy (owned, then ghosts). Contributions to ghost
   /// copies stay in y's ghost entries (sum them into their owners: apply()).
   virtual void apply_add(const double* x, double* y) const = 0;
+  /// The same on single-precision vectors (the loop-layer cycle in single precision:
+  /// -gmg_backend host_loop -gmg_precision single): each cell gathers its 24 values into
+  /// double, acts in its own arithmetic and adds its 24 results rounded to float.
+  virtual void apply_add(const float* x, float* y) const = 0;
   /// For every cell e, y at its corner q of parity colour k += (rows of corner q of A_e) x,
   /// with q = corner_of_colour(position[e], k): each cell has exactly one such corner, so a
   /// colour costs 1/8 of apply_add. Other entries of y are not touched.

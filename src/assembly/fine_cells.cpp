@@ -62,6 +62,11 @@ void FineCells::apply_add(const double* x, double* y) const {
                     backend::CellApplyAdd<FineCellOps>{{data()}, corners(), x, y});
 }
 
+void FineCells::apply_add(const float* x, float* y) const {
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellApplyAdd<FineCellOps, float>{{data()}, corners(), x, y});
+}
+
 void FineCells::apply_add_colour(const CellPositions& position, int k, const double* x,
                                  double* y) const {
   const int* p = position.empty() ? nullptr : position[0].data();

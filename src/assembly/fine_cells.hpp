@@ -35,6 +35,7 @@ class FineCells final : public CellOperator {
   const OperatorWeights& weights() const { return w_; }
 
   void apply_add(const double* x, double* y) const override;
+  void apply_add(const float* x, float* y) const override;
   void apply_add_colour(const CellPositions& position, int k, const double* x,
                         double* y) const override;
   void add_diagonal_blocks(double* diag) const override;

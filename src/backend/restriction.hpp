@@ -16,13 +16,14 @@
 
 namespace hexcut::backend {
 
-/// y += A x: each cell's contribution at its corners.
-template <class Cell>
+/// y += A x: each cell's contribution at its corners. V: the vectors' type (double, or float
+/// for the loop-layer cycle in single precision); the cell's arithmetic is the Cell's.
+template <class Cell, class V = double>
 struct CellApplyAdd {
   Cell cell;
   const std::int32_t* corners;  // 8 per cell
-  const double* x;
-  double* y;
+  const V* x;
+  V* y;
   HEXCUT_HD void operator()(std::int32_t e) const {
     const std::int32_t* c = corners + 8 * std::int64_t(e);
     double xe[24], ye[24];

@@ -25,17 +25,20 @@ struct FineCell {
 };
 
 /// The 24 values (3 per corner) of a cell from a vector with 3 values per vertex copy;
-/// `corners` are the cell's 8 local copy indices.
-HEXCUT_HD inline void gather_cell(const double* v, const int* corners, double* out24) {
+/// `corners` are the cell's 8 local copy indices. V: double, or float for the loop-layer
+/// cycle's single-precision vectors (the cell's arithmetic stays double).
+template <class V>
+HEXCUT_HD inline void gather_cell(const V* v, const int* corners, double* out24) {
   for (int q = 0; q < 8; ++q)
     for (int d = 0; d < 3; ++d) out24[3 * q + d] = v[3 * corners[q] + d];
 }
 
-/// v += scale * in24 at the cell's 8 corners (3 values each).
-HEXCUT_HD inline void scatter_add_cell(const double* in24, const int* corners, double* v,
+/// v += scale * in24 at the cell's 8 corners (3 values each; rounded to V once per add).
+template <class V>
+HEXCUT_HD inline void scatter_add_cell(const double* in24, const int* corners, V* v,
                                        double scale = 1.0) {
   for (int q = 0; q < 8; ++q)
-    for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += scale * in24[3 * q + d];
+    for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += V(scale * in24[3 * q + d]);
 }
 
 /// Three rows of a 24x24 row-major matrix times x24, with six independent partial sums

@@ -1,24 +1,43 @@
 #include "multigrid/host_loop_cycle.hpp"
 
+#include <type_traits>
+
 namespace hexcut::multigrid {
 
-PetscErrorCode HostLoopCycle::create(Multigrid& mg, std::unique_ptr<HostLoopCycle>* out) {
+template <class S>
+PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out) {
   PetscFunctionBeginUser;
-  std::unique_ptr<HostLoopCycle> c(new HostLoopCycle(mg));
+  std::unique_ptr<HostLoopCycleOf> c(new HostLoopCycleOf(mg));
   PetscCall(mg.loop_levels(&c->levels_));
   c->work_.resize(c->levels_.size());
   for (std::size_t l = 0; l < c->levels_.size(); ++l)
-    for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_copies), 0.0);
+    for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_copies), S(0));
+  if (!std::is_same_v<S, double>) {
+    const auto n = 3 * std::size_t(c->levels_.back().view.num_copies);
+    c->coarse_b_.resize(n);
+    c->coarse_x_.resize(n);
+  }
   *out = std::move(c);
   PetscFunctionReturn(0);
 }
 
-void HostLoopCycle::solve_coarsest(const double* b, double* x) {
+template <class S>
+void HostLoopCycleOf<S>::solve_coarsest(const S* b, S* x) {
   // The executor interface has no error channel: the first PETSc error is kept for apply().
-  if (!coarse_error_) coarse_error_ = mg_.solve_coarsest(b, x);
+  if (coarse_error_) return;
+  if constexpr (std::is_same_v<S, double>) {
+    coarse_error_ = mg_.solve_coarsest(b, x);
+  } else {
+    // The factorization is double's: the coarsest level's vectors (a few thousand DOFs) pass
+    // through double arrays.
+    std::copy(b, b + coarse_b_.size(), coarse_b_.begin());
+    coarse_error_ = mg_.solve_coarsest(coarse_b_.data(), coarse_x_.data());
+    std::copy(coarse_x_.begin(), coarse_x_.end(), x);
+  }
 }
 
-PetscErrorCode HostLoopCycle::apply(const double* b, double* x) {
+template <class S>
+PetscErrorCode HostLoopCycleOf<S>::apply(const double* b, double* x) {
   PetscFunctionBeginUser;
   auto& b0 = work_[0][0];
   std::copy(b, b + b0.size(), b0.begin());
@@ -28,5 +47,8 @@ PetscErrorCode HostLoopCycle::apply(const double* b, double* x) {
   std::copy(work_[0][1].begin(), work_[0][1].end(), x);
   PetscFunctionReturn(0);
 }
+
+template class HostLoopCycleOf<double>;
+template class HostLoopCycleOf<float>;
 
 }  // namespace hexcut::multigrid

@@ -4,6 +4,10 @@
 // Multigrid's factorization. It is the reference the CUDA backend is tested against
 // (tests/cuda/device_test.cpp), and it is itself tested against Multigrid::cycle
 // (tests/multigrid/multigrid_test.cpp, "LoopCycle"): the same cycle to round-off.
+//
+// HostLoopCycleOf<float> (HostLoopCycleSingle) is the single-precision V-cycle of mixed
+// precision (-gmg_backend host_loop -gmg_precision single; doc/theory.md, "Mixed precision"):
+// every level's work vectors in float, the outer CG in double.
 #pragma once
 
 #include <petscsys.h>
@@ -18,38 +22,46 @@
 
 namespace hexcut::multigrid {
 
-class HostLoopCycle : public CycleBackend {
+template <class S>
+class HostLoopCycleOf : public CycleBackend {
  public:
+  using Scalar = S;  // the work vectors' type: double or float
+
   /// The cycle of `mg` (after its update(); it must outlive this). Errors: those of
   /// Multigrid::loop_levels (PETSC_ERR_SUP where the loop-layer cycle does not apply).
-  static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycle>* out);
-  HostLoopCycle(const HostLoopCycle&) = delete;
-  HostLoopCycle& operator=(const HostLoopCycle&) = delete;
+  static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out);
+  HostLoopCycleOf(const HostLoopCycleOf&) = delete;
+  HostLoopCycleOf& operator=(const HostLoopCycleOf&) = delete;
 
-  /// x = M^-1 b, one cycle from zero; b, x: 3 values per owned copy of level 0.
+  /// x = M^-1 b, one cycle from zero; b, x: 3 values per owned copy of level 0 (in double:
+  /// a float cycle rounds b once on entry).
   PetscErrorCode apply(const double* b, double* x) override;
 
   // The executor of loop::cycle_level.
   int num_levels() const { return int(levels_.size()); }
   int gamma() const { return mg_.cycle_gamma(); }
   const LoopLevel& level(int l) const { return levels_[l].view; }
-  double* b(int l) { return work_[l][0].data(); }
-  double* x(int l) { return work_[l][1].data(); }
-  double* r(int l) { return work_[l][2].data(); }
-  double* dir(int l) { return work_[l][3].data(); }
+  S* b(int l) { return work_[l][0].data(); }
+  S* x(int l) { return work_[l][1].data(); }
+  S* r(int l) { return work_[l][2].data(); }
+  S* dir(int l) { return work_[l][3].data(); }
   template <class Kernel>
   void for_each(std::int64_t n, const Kernel& k) {
     backend::for_each(n, k);
   }
-  void apply_add(int l, const double* x, double* y) { mg_.cell_operator(l)->apply_add(x, y); }
-  void solve_coarsest(const double* b, double* x);
+  void apply_add(int l, const S* x, S* y) { mg_.cell_operator(l)->apply_add(x, y); }
+  void solve_coarsest(const S* b, S* x);
 
  private:
-  explicit HostLoopCycle(Multigrid& mg) : mg_(mg) {}
+  explicit HostLoopCycleOf(Multigrid& mg) : mg_(mg) {}
   Multigrid& mg_;
   std::vector<LoopLevelArrays> levels_;
-  std::vector<std::array<std::vector<double>, 4>> work_;  // b, x, r, dir per level
+  std::vector<std::array<std::vector<S>, 4>> work_;  // b, x, r, dir per level
+  std::vector<double> coarse_b_, coarse_x_;          // float: the coarsest solve's, in double
   PetscErrorCode coarse_error_ = 0;
 };
+
+using HostLoopCycle = HostLoopCycleOf<double>;
+using HostLoopCycleSingle = HostLoopCycleOf<float>;
 
 }  // namespace hexcut::multigrid

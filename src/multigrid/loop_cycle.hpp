@@ -6,12 +6,16 @@
 // copy (structure of arrays), free of PETSc, so nvcc compiles it too.
 //
 // An executor `Exec` provides, for levels l = 0..num_levels()-1 (all arrays in its memory):
+//   using Scalar = double or float;                 the work vectors' type
 //   int num_levels() const; int gamma() const;      1: V-cycle, 2: W-cycle
 //   const LoopLevel& level(int l) const;            the level's arrays (below)
-//   double *b(l), *x(l), *r(l), *dir(l);            work vectors, 3 per copy
+//   Scalar *b(l), *x(l), *r(l), *dir(l);            work vectors, 3 per copy
 //   void for_each(std::int64_t n, const K& k);      k(i) for i < n (any order, no races)
-//   void apply_add(int l, const double* x, double* y);  y += A_l x, the level's cells
-//   void solve_coarsest(const double* b, double* x);    x = A_c^-1 b on the last level
+//   void apply_add(int l, const Scalar* x, Scalar* y);  y += A_l x, the level's cells
+//   void solve_coarsest(const Scalar* b, Scalar* x);    x = A_c^-1 b on the last level
+// With Scalar = float the cycle is the single-precision V-cycle of mixed precision (doc/theory.md,
+// "Mixed precision"): vectors in float, each pointwise body computing in double from float
+// loads and rounding once per store; the level data (diagonal blocks, mask, weights) stay double.
 #pragma once
 
 #include <cstdint>
@@ -57,53 +61,58 @@ struct LoopLevelArrays {
   std::vector<double> restrict_weight;
 };
 
-/// y = 0 (3 values per copy).
+/// y = 0 (3 values per copy). V: the work vectors' type (Exec::Scalar) in all the bodies below.
+template <class V>
 struct Zero {
-  double* y;
+  V* y;
   HEXCUT_HD void operator()(std::int32_t i) const {
-    for (int c = 0; c < 3; ++c) y[3 * std::int64_t(i) + c] = 0.0;
+    for (int c = 0; c < 3; ++c) y[3 * std::int64_t(i) + c] = V(0);
   }
 };
 
 /// r = b - (A x + identity rows): r holds A x from the cells on entry; where the mask is 0
 /// the row is the identity's (assembly::apply's identity_mask), then the residual is formed.
 /// With `masked`, the residual is zeroed where the mask is 0 (what the restriction sees).
+template <class V>
 struct Residual {
-  const double* b;
-  const double* x;
+  const V* b;
+  const V* x;
   const double* mask;
   bool masked;
-  double* r;
+  V* r;
   HEXCUT_HD void operator()(std::int32_t i) const {
     for (int c = 0; c < 3; ++c) {
       const auto k = 3 * std::int64_t(i) + c;
-      const double Ax = mask[k] == 0.0 ? r[k] + x[k] : r[k];
-      r[k] = masked ? mask[k] * (b[k] - Ax) : b[k] - Ax;
+      const double Ax = mask[k] == 0.0 ? double(r[k]) + double(x[k]) : double(r[k]);
+      r[k] = V(masked ? mask[k] * (double(b[k]) - Ax) : double(b[k]) - Ax);
     }
   }
 };
 
 /// dir = alpha D^-1 r + beta dir (beta = 0: dir's old values are not read).
+template <class V>
 struct JacobiDirection {
   const double* diag_inv;
-  const double* r;
+  const V* r;
   double alpha, beta;
-  double* dir;
+  V* dir;
   HEXCUT_HD void operator()(std::int32_t i) const {
     const double* D = diag_inv + 9 * std::int64_t(i);
-    const double* ri = r + 3 * std::int64_t(i);
+    const V* ri = r + 3 * std::int64_t(i);
+    const double r0 = ri[0], r1 = ri[1], r2 = ri[2];
     for (int c = 0; c < 3; ++c) {
-      const double z = D[3 * c] * ri[0] + D[3 * c + 1] * ri[1] + D[3 * c + 2] * ri[2];
-      double& d = dir[3 * std::int64_t(i) + c];
-      d = beta == 0.0 ? alpha * z : alpha * z + beta * d;
+      const double z = D[3 * c] * r0 + D[3 * c + 1] * r1 + D[3 * c + 2] * r2;
+      V& d = dir[3 * std::int64_t(i) + c];
+      d = V(beta == 0.0 ? alpha * z : alpha * z + beta * double(d));
     }
   }
 };
 
 /// x += y.
+template <class V>
 struct AddTo {
-  const double* y;
-  double* x;
+  const V* y;
+  V* x;
   HEXCUT_HD void operator()(std::int32_t i) const {
     for (int c = 0; c < 3; ++c) x[3 * std::int64_t(i) + c] += y[3 * std::int64_t(i) + c];
   }
@@ -111,27 +120,29 @@ struct AddTo {
 
 /// b_C = sum over the fine copies f of C of w_fC r_f (the transpose of the prolongation), per
 /// coarse copy C.
+template <class V>
 struct Restrict {
   const std::int32_t* offset;
   const std::int32_t* fine;
   const double* weight;
-  const double* r;
-  double* b;
+  const V* r;
+  V* b;
   HEXCUT_HD void operator()(std::int32_t C) const {
     double s[3] = {0.0, 0.0, 0.0};
     for (auto k = offset[C]; k < offset[C + 1]; ++k)
       for (int c = 0; c < 3; ++c) s[c] += weight[k] * r[3 * std::int64_t(fine[k]) + c];
-    for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = s[c];
+    for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = V(s[c]);
   }
 };
 
 /// x_f += mask_f sum_j w_fj x_C(j), per fine copy f (the coarse correction).
+template <class V>
 struct ProlongAdd {
   const std::int32_t* coarse;
   const double* weight;
   const double* mask;
-  const double* xc;
-  double* x;
+  const V* xc;
+  V* x;
   HEXCUT_HD void operator()(std::int32_t f) const {
     double s[3] = {0.0, 0.0, 0.0};
     for (int j = 0; j < 8; ++j) {
@@ -140,39 +151,40 @@ struct ProlongAdd {
       const double w = weight[8 * std::int64_t(f) + j];
       for (int c = 0; c < 3; ++c) s[c] += w * xc[3 * std::int64_t(C) + c];
     }
-    for (int c = 0; c < 3; ++c) x[3 * std::int64_t(f) + c] += mask[3 * std::int64_t(f) + c] * s[c];
+    for (int c = 0; c < 3; ++c)
+      x[3 * std::int64_t(f) + c] += V(mask[3 * std::int64_t(f) + c] * s[c]);
   }
 };
 
 namespace loop {
 
 /// r = b - A_l x (masked: zero where the mask is 0).
-template <class Exec>
-void residual(Exec& ex, int l, const double* b, const double* x, double* r, bool masked) {
+template <class Exec, class V = typename Exec::Scalar>
+void residual(Exec& ex, int l, const V* b, const V* x, V* r, bool masked) {
   const LoopLevel& L = ex.level(l);
-  ex.for_each(L.num_copies, Zero{r});
+  ex.for_each(L.num_copies, Zero<V>{r});
   ex.apply_add(l, x, r);
-  ex.for_each(L.num_copies, Residual{b, x, L.mask, masked, r});
+  ex.for_each(L.num_copies, Residual<V>{b, x, L.mask, masked, r});
 }
 
 /// Chebyshev iteration on D^-1 A over [0.2, 1.1] lambda_max, `degree` steps from x (the
 /// recurrence of Multigrid::chebyshev).
-template <class Exec>
-void chebyshev(Exec& ex, int l, const double* b, double* x, int degree) {
+template <class Exec, class V = typename Exec::Scalar>
+void chebyshev(Exec& ex, int l, const V* b, V* x, int degree) {
   const LoopLevel& L = ex.level(l);
   const double hi = 1.1 * L.lambda_max, lo = 0.2 * L.lambda_max;
   const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
   double rho_old = 1.0 / sigma;
-  double *r = ex.r(l), *dir = ex.dir(l);
+  V *r = ex.r(l), *dir = ex.dir(l);
   residual(ex, l, b, x, r, false);
-  ex.for_each(L.num_copies, JacobiDirection{L.diag_inv, r, 1.0 / theta, 0.0, dir});
+  ex.for_each(L.num_copies, JacobiDirection<V>{L.diag_inv, r, 1.0 / theta, 0.0, dir});
   for (int i = 0; i < degree; ++i) {
-    ex.for_each(L.num_copies, AddTo{dir, x});
+    ex.for_each(L.num_copies, AddTo<V>{dir, x});
     if (i + 1 == degree) break;
     residual(ex, l, b, x, r, false);
     const double rho = 1.0 / (2.0 * sigma - rho_old);
     ex.for_each(L.num_copies,
-                JacobiDirection{L.diag_inv, r, 2.0 * rho / delta, rho * rho_old, dir});
+                JacobiDirection<V>{L.diag_inv, r, 2.0 * rho / delta, rho * rho_old, dir});
     rho_old = rho;
   }
 }
@@ -185,16 +197,18 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
     ex.solve_coarsest(ex.b(l), ex.x(l));
     return;
   }
+  using V = typename Exec::Scalar;
   const LoopLevel& L = ex.level(l);
-  double *b = ex.b(l), *x = ex.x(l), *r = ex.r(l);
-  if (zero_guess) ex.for_each(L.num_copies, Zero{x});
+  V *b = ex.b(l), *x = ex.x(l), *r = ex.r(l);
+  if (zero_guess) ex.for_each(L.num_copies, Zero<V>{x});
   if (L.presmooth > 0) chebyshev(ex, l, b, x, L.presmooth);
   residual(ex, l, b, x, r, true);
   ex.for_each(L.num_coarse,
-              Restrict{L.restrict_offset, L.restrict_fine, L.restrict_weight, r, ex.b(l + 1)});
+              Restrict<V>{L.restrict_offset, L.restrict_fine, L.restrict_weight, r, ex.b(l + 1)});
   const int visits = l + 2 == levels ? 1 : ex.gamma();
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
-  ex.for_each(L.num_copies, ProlongAdd{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
+  ex.for_each(L.num_copies,
+              ProlongAdd<V>{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
   if (L.postsmooth > 0) chebyshev(ex, l, b, x, L.postsmooth);
 }
 

@@ -215,8 +215,10 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   const char* precisions[] = {"double", "single"};
   choice = o.precision == Precision::single ? 1 : 0;
   PetscCall(PetscOptionsEList("-gmg_precision",
-                              "Storage of the coarse levels' Galerkin blocks: double, or single "
-                              "(float; products in double, the outer CG in double)",
+                              "Precision of the cycle: double, or single (the coarse levels' "
+                              "Galerkin blocks in float, products in double; with -gmg_backend "
+                              "host_loop also every level's vectors in float; the outer CG in "
+                              "double)",
                               "", precisions, 2, precisions[choice], &choice, &set));
   if (set) o.precision = choice == 1 ? Precision::single : Precision::double_;
   PetscCheck(o.interpolation != Interpolation::smoothed || o.smoother == Smoother::chebyshev,

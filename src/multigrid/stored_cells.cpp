@@ -234,7 +234,8 @@ void StoredCells::set_block(std::size_t e, const double* packed) {
   std::copy_n(packed, kPackedSize, doubles() + kPackedSize * e);
 }
 
-void StoredCells::apply_add(const double* x, double* y) const {
+template <class V>
+void StoredCells::apply_add_on(const V* x, V* y) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const auto n = std::int64_t(num_cells());
   if (!unpacked_.empty()) {
@@ -242,25 +243,33 @@ void StoredCells::apply_add(const double* x, double* y) const {
     if (const double* d = packed_double()) {
       backend::for_each_in(
           unpacked_cells_,
-          backend::CellApplyAdd<UnpackedBlockOpsOf<double>>{
+          backend::CellApplyAdd<UnpackedBlockOpsOf<double>, V>{
               {full_double_.data(), block_of(), unpacked_.data()}, corners(), x, y});
-      backend::for_each_in(packed_cells_,
-                           backend::CellApplyAdd<StoredCellOps>{{d, block_of()}, corners(), x, y});
+      backend::for_each_in(
+          packed_cells_, backend::CellApplyAdd<StoredCellOps, V>{{d, block_of()}, corners(), x, y});
     } else {
       backend::for_each_in(
           unpacked_cells_,
-          backend::CellApplyAdd<UnpackedBlockOpsOf<float>>{
+          backend::CellApplyAdd<UnpackedBlockOpsOf<float>, V>{
               {full_single_.data(), block_of(), unpacked_.data()}, corners(), x, y});
-      backend::for_each_in(packed_cells_, backend::CellApplyAdd<StoredCellOpsSingle>{
+      backend::for_each_in(packed_cells_, backend::CellApplyAdd<StoredCellOpsSingle, V>{
                                               {packed_single(), block_of()}, corners(), x, y});
     }
     return;
   }
   if (const double* d = packed_double())
-    backend::for_each(n, backend::CellApplyAdd<StoredCellOps>{{d, block_of()}, corners(), x, y});
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOps, V>{{d, block_of()}, corners(), x, y});
   else
-    backend::for_each(n, backend::CellApplyAdd<StoredCellOpsSingle>{
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOpsSingle, V>{
                              {packed_single(), block_of()}, corners(), x, y});
+}
+
+void StoredCells::apply_add(const double* x, double* y) const {
+  apply_add_on(x, y);
+}
+
+void StoredCells::apply_add(const float* x, float* y) const {
+  apply_add_on(x, y);
 }
 
 void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
