@@ -1180,6 +1180,37 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     VecDestroy(&b);
     VecDestroy(&x);
   }
+  if (size == 1) {
+    // Chosen as options, Multigrid::cycle runs the float cycle: float's distance from the
+    // double loop cycle (a double cycle behind the options would be 1e-16 from it).
+    Job job(PETSC_COMM_WORLD, kBlock, 8,
+            "-gmg_levels 3 -gmg_backend host_loop -gmg_precision single");
+    auto& mg = *job.sim->multigrid();
+    HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
+    Vec b, x;
+    HEXCUT_CALL(mg.create_vector(0, &b));
+    VecDuplicate(b, &x);
+    fill(b, 0.7);
+    HEXCUT_CALL(mg.cycle(b, x));
+    std::unique_ptr<multigrid::HostLoopCycle> loop;
+    HEXCUT_CALL(multigrid::HostLoopCycle::create(mg, &loop));
+    PetscInt n;
+    VecGetLocalSize(b, &n);
+    std::vector<double> y(n);
+    const PetscScalar *ba, *xa;
+    VecGetArrayRead(b, &ba);
+    HEXCUT_CALL(loop->apply(ba, y.data()));
+    VecRestoreArrayRead(b, &ba);
+    VecGetArrayRead(x, &xa);
+    const auto d = max_difference(y.data(), xa, std::size_t(n));
+    VecRestoreArrayRead(x, &xa);
+    std::printf("-gmg_backend host_loop -gmg_precision single: %.1e from the double loop cycle\n",
+                d.relative());
+    EXPECT_GT(d.relative(), 1e-9) << "the options did not select the float cycle";
+    EXPECT_LT(d.relative(), 1e-5);
+    VecDestroy(&b);
+    VecDestroy(&x);
+  }
   // What it does not run yet is named.
   Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 3 -gmg_smoother gs");
   auto& mg = *job.sim->multigrid();
