@@ -851,14 +851,8 @@ PetscErrorCode Multigrid::update(const assembly::CellData& cells,
   built_ = true;
   // The other backends hold copies of (or pointers into) the levels: made again after every
   // update, rotation-only ones included.
-  if (opt_.backend == Backend::host_loop && opt_.precision == Precision::single) {
-    std::unique_ptr<HostLoopCycleSingle> c;
-    PetscCall(HostLoopCycleSingle::create(*this, &c));
-    backend_cycle_ = std::move(c);
-  } else if (opt_.backend == Backend::host_loop) {
-    std::unique_ptr<HostLoopCycle> c;
-    PetscCall(HostLoopCycle::create(*this, &c));
-    backend_cycle_ = std::move(c);
+  if (opt_.backend == Backend::host_loop) {
+    PetscCall(host_loop_cycle(*this, opt_.precision, &backend_cycle_));
   } else if (opt_.backend == Backend::cuda) {
     std::string why;
     PetscCheck(device_count(&why) > 0, comm_, PETSC_ERR_SUP, "gmg: -gmg_backend cuda: %s",

@@ -51,4 +51,20 @@ PetscErrorCode HostLoopCycleOf<S>::apply(const double* b, double* x) {
 template class HostLoopCycleOf<double>;
 template class HostLoopCycleOf<float>;
 
+namespace {
+template <class S>
+PetscErrorCode adopt(Multigrid& mg, std::unique_ptr<CycleBackend>* out) {
+  PetscFunctionBeginUser;
+  std::unique_ptr<HostLoopCycleOf<S>> c;
+  PetscCall(HostLoopCycleOf<S>::create(mg, &c));
+  *out = std::move(c);
+  PetscFunctionReturn(0);
+}
+}  // namespace
+
+PetscErrorCode host_loop_cycle(Multigrid& mg, Precision precision,
+                               std::unique_ptr<CycleBackend>* out) {
+  return precision == Precision::single ? adopt<float>(mg, out) : adopt<double>(mg, out);
+}
+
 }  // namespace hexcut::multigrid

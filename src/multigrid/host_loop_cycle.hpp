@@ -64,4 +64,9 @@ class HostLoopCycleOf : public CycleBackend {
 using HostLoopCycle = HostLoopCycleOf<double>;
 using HostLoopCycleSingle = HostLoopCycleOf<float>;
 
+/// The host backend's cycle for `mg` in its precision (Precision::single: HostLoopCycleSingle),
+/// what Multigrid::update makes for -gmg_backend host_loop. Errors: those of create().
+PetscErrorCode host_loop_cycle(Multigrid& mg, Precision precision,
+                               std::unique_ptr<CycleBackend>* out);
+
 }  // namespace hexcut::multigrid

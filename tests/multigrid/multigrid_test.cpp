@@ -1108,6 +1108,18 @@ std::string blade_grid_cube(bool cuts, double angle_deg) {
   return y;
 }
 
+/// x = M^-1 b by a backend's cycle (HostLoopCycle, HostLoopCycleSingle), on b's owned values.
+std::vector<double> backend_cycle(multigrid::CycleBackend& cycle, Vec b) {
+  PetscInt n;
+  VecGetLocalSize(b, &n);
+  std::vector<double> x(n);
+  const PetscScalar* ba;
+  VecGetArrayRead(b, &ba);
+  HEXCUT_CALL(cycle.apply(ba, x.data()));
+  VecRestoreArrayRead(b, &ba);
+  return x;
+}
+
 TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
   // The cycle written once over an executor (multigrid/loop_cycle.hpp: what the CUDA backend
   // runs) on the host backend equals Multigrid::cycle, the PETSc-vector cycle, to round-off
@@ -1150,16 +1162,10 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     VecDuplicate(b, &x);
     fill(b, 0.7);
     HEXCUT_CALL(mg.cycle(b, x));
-    const PetscScalar* ba;
+    const auto y = backend_cycle(*loop, b);
     const PetscScalar* xa;
-    PetscInt n;
-    VecGetLocalSize(b, &n);
-    std::vector<double> y(n);
-    VecGetArrayRead(b, &ba);
-    HEXCUT_CALL(loop->apply(ba, y.data()));
-    VecRestoreArrayRead(b, &ba);
     VecGetArrayRead(x, &xa);
-    const auto d = max_difference(xa, y.data(), std::size_t(n));
+    const auto d = max_difference(xa, y.data(), y.size());
     VecRestoreArrayRead(x, &xa);
     std::printf("%s%s: %d levels, max |loop - cycle| / max |cycle| = %.1e\n", c.options,
                 c.cut ? " (cut)" : "", mg.num_levels(), d.relative());
@@ -1169,11 +1175,8 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     // by the cycle's contraction), neither double's round-off nor a different cycle.
     std::unique_ptr<multigrid::HostLoopCycleSingle> single;
     HEXCUT_CALL(multigrid::HostLoopCycleSingle::create(mg, &single));
-    std::vector<double> ys(n);
-    VecGetArrayRead(b, &ba);
-    HEXCUT_CALL(single->apply(ba, ys.data()));
-    VecRestoreArrayRead(b, &ba);
-    const auto ds = max_difference(y.data(), ys.data(), std::size_t(n));
+    const auto ys = backend_cycle(*single, b);
+    const auto ds = max_difference(y.data(), ys.data(), y.size());
     std::printf("  in float: max |float - double| / max |double| = %.1e\n", ds.relative());
     EXPECT_GT(ds.relative(), 1e-9) << c.options << ": not float";
     EXPECT_LT(ds.relative(), 1e-5) << c.options;
@@ -1194,15 +1197,10 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     HEXCUT_CALL(mg.cycle(b, x));
     std::unique_ptr<multigrid::HostLoopCycle> loop;
     HEXCUT_CALL(multigrid::HostLoopCycle::create(mg, &loop));
-    PetscInt n;
-    VecGetLocalSize(b, &n);
-    std::vector<double> y(n);
-    const PetscScalar *ba, *xa;
-    VecGetArrayRead(b, &ba);
-    HEXCUT_CALL(loop->apply(ba, y.data()));
-    VecRestoreArrayRead(b, &ba);
+    const auto y = backend_cycle(*loop, b);
+    const PetscScalar* xa;
     VecGetArrayRead(x, &xa);
-    const auto d = max_difference(y.data(), xa, std::size_t(n));
+    const auto d = max_difference(y.data(), xa, y.size());
     VecRestoreArrayRead(x, &xa);
     std::printf("-gmg_backend host_loop -gmg_precision single: %.1e from the double loop cycle\n",
                 d.relative());
