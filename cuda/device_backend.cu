@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 // The device side of device_kernels.hpp: launch wrappers around the host's functor bodies.
@@ -111,10 +112,12 @@ class DeviceFineCells {
     d_.cell_masked = upload(&cell_masked_, h.mask ? h.cell_masked : nullptr, n);
     upload(&order_, cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
   }
-  /// y += A x, x and y device arrays, launched colour by colour (no synchronization).
-  void apply_add(const CellArrays& cells, const double* x, double* y) const {
+  /// y += A x, x and y device arrays of V (double or float), launched colour by colour (no
+  /// synchronization).
+  template <class V>
+  void apply_add(const CellArrays& cells, const V* x, V* y) const {
     if (cells.num_cells == 0) return;
-    const backend::CellApplyAdd<assembly::FineCellOps> k{{d_}, d_.corners, x, y};
+    const backend::CellApplyAdd<assembly::FineCellOps, V> k{{d_}, d_.corners, x, y};
     launch_colours(k, order_->get(), cells);
   }
 
@@ -141,17 +144,18 @@ class DeviceStoredCells {
     block_of_ = upload(&b_, cells.block_of, n);
     order_ = upload(&o_, cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
   }
-  /// y += A x, x and y device arrays (no synchronization).
-  void apply_add(const double* x, double* y) const {
+  /// y += A x, x and y device arrays of V (double or float; no synchronization).
+  template <class V>
+  void apply_add(const V* x, V* y) const {
     if (cells_.num_cells == 0) return;
     if (packed_double_)
       launch_colours(
-          backend::CellApplyAdd<multigrid::StoredCellOps>{
+          backend::CellApplyAdd<multigrid::StoredCellOps, V>{
               {packed_double_, block_of_}, corners_, x, y},
           order_, cells_);
     else
       launch_colours(
-          backend::CellApplyAdd<multigrid::StoredCellOpsSingle>{
+          backend::CellApplyAdd<multigrid::StoredCellOpsSingle, V>{
               {packed_single_, block_of_}, corners_, x, y},
           order_, cells_);
   }
@@ -213,19 +217,37 @@ double median_seconds(int repeat, const F& f) {
 
 }  // namespace
 
-/// The executor of multigrid::loop::cycle_level on the device (multigrid/loop_cycle.hpp).
+/// The device cycle behind DeviceCycle, whatever the work vectors' type.
 struct DeviceCycle::Executor {
+  virtual ~Executor() = default;
+  virtual void apply(const double* b, double* x) = 0;
+  virtual double time_cycle(int repeat) = 0;
+  template <class S>
+  struct Of;
+};
+
+/// The executor of multigrid::loop::cycle_level on the device (multigrid/loop_cycle.hpp), with
+/// work vectors of type S: double, or float for the single-precision V-cycle (the level data,
+/// diagonal blocks, masks and weights, stay double as on the host).
+template <class S>
+struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::vector<multigrid::LoopLevel> levels;  // device pointers
   std::vector<CellArrays> cells;             // level 0: colour_offset points into offsets0
   std::vector<std::int32_t> offsets0;
   std::vector<std::unique_ptr<DeviceArray<double>>> doubles;
   std::vector<std::unique_ptr<DeviceArray<std::int32_t>>> ints;
+  std::vector<std::unique_ptr<DeviceArray<S>>> vectors;
   std::unique_ptr<DeviceFineCells> fine;
   std::vector<std::unique_ptr<DeviceStoredCells>> stored;  // per level (null on 0 and the last)
-  std::vector<std::array<double*, 4>> work;                // b, x, r, dir per level
+  std::vector<std::array<S*, 4>> work;                     // b, x, r, dir per level
   int gamma_ = 1;
   std::function<void(const double*, double*)> coarse;
-  std::vector<double> coarse_b, coarse_x;  // host copies of the coarsest level's b and x
+  std::vector<S> coarse_s;                 // the coarsest level's b, then x, as on the device
+  std::vector<double> coarse_b, coarse_x;  // the same in double, for the host factorization
+  std::vector<S> host_b;                   // level 0's b (float: b rounded once on entry)
+
+  Of(const std::vector<DeviceCycleLevel>& levels, int gamma,
+     std::function<void(const double* b, double* x)> solve_coarsest);
 
   /// upload() into a new slot of `owner`.
   template <class T>
@@ -233,97 +255,125 @@ struct DeviceCycle::Executor {
     owner->emplace_back();
     return upload(&owner->back(), host, n);
   }
-  double* zeros(std::size_t n) {
-    doubles.push_back(std::make_unique<DeviceArray<double>>(n));
-    check(cudaMemset(doubles.back()->get(), 0, n * sizeof(double)), "cudaMemset");
-    return doubles.back()->get();
+  S* zeros(std::size_t n) {
+    vectors.push_back(std::make_unique<DeviceArray<S>>(n));
+    check(cudaMemset(vectors.back()->get(), 0, n * sizeof(S)), "cudaMemset");
+    return vectors.back()->get();
   }
 
-  using Scalar = double;  // the device cycle is double only (single: not yet)
+  // The executor of loop::cycle_level.
+  using Scalar = S;
   int num_levels() const { return int(levels.size()); }
   int gamma() const { return gamma_; }
   const multigrid::LoopLevel& level(int l) const { return levels[l]; }
-  double* b(int l) { return work[l][0]; }
-  double* x(int l) { return work[l][1]; }
-  double* r(int l) { return work[l][2]; }
-  double* dir(int l) { return work[l][3]; }
+  S* b(int l) { return work[l][0]; }
+  S* x(int l) { return work[l][1]; }
+  S* r(int l) { return work[l][2]; }
+  S* dir(int l) { return work[l][3]; }
   template <class Kernel>
   void for_each(std::int64_t n, const Kernel& k) {
     launch_index(n, k);
   }
-  void apply_add(int l, const double* xd, double* yd) {
+  void apply_add(int l, const S* xd, S* yd) {
     if (l == 0)
       fine->apply_add(cells[0], xd, yd);
     else
       stored[l]->apply_add(xd, yd);
   }
-  void solve_coarsest(const double* bd, double* xd) {
-    const auto n = coarse_b.size();
-    check(cudaMemcpy(coarse_b.data(), bd, n * sizeof(double), cudaMemcpyDeviceToHost),
+  // One rank (MultigridDeviceCycle refuses more): no ghosts to exchange.
+  void exchange(int, S*) {}
+  void accumulate(int, S*) {}
+  void solve_coarsest(const S* bd, S* xd) {
+    const auto n = coarse_s.size();
+    check(cudaMemcpy(coarse_s.data(), bd, n * sizeof(S), cudaMemcpyDeviceToHost),
           "cudaMemcpy to host");
-    coarse(coarse_b.data(), coarse_x.data());
-    check(cudaMemcpy(xd, coarse_x.data(), n * sizeof(double), cudaMemcpyHostToDevice),
+    if constexpr (std::is_same_v<S, double>) {
+      coarse(coarse_s.data(), coarse_x.data());
+      std::copy(coarse_x.begin(), coarse_x.end(), coarse_s.begin());
+    } else {  // the factorization is double's: the coarsest vectors pass through double
+      std::copy(coarse_s.begin(), coarse_s.end(), coarse_b.begin());
+      coarse(coarse_b.data(), coarse_x.data());
+      std::copy(coarse_x.begin(), coarse_x.end(), coarse_s.begin());
+    }
+    check(cudaMemcpy(xd, coarse_s.data(), n * sizeof(S), cudaMemcpyHostToDevice),
           "cudaMemcpy to device");
+  }
+
+  void apply(const double* bh, double* xh) override {
+    const auto n = host_b.size();
+    std::copy(bh, bh + n, host_b.begin());
+    check(cudaMemcpy(b(0), host_b.data(), n * sizeof(S), cudaMemcpyHostToDevice),
+          "cudaMemcpy to device");
+    multigrid::loop::cycle_level(*this, 0, true);
+    check(cudaMemcpy(host_b.data(), x(0), n * sizeof(S), cudaMemcpyDeviceToHost),
+          "cudaMemcpy to host");
+    std::copy(host_b.begin(), host_b.end(), xh);
+  }
+  double time_cycle(int repeat) override {
+    return median_seconds(repeat, [&] { multigrid::loop::cycle_level(*this, 0, true); });
   }
 };
 
-DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
-                         std::function<void(const double* b, double* x)> solve_coarsest)
-    : ex_(std::make_unique<Executor>()) {
-  auto& e = *ex_;
+template <class S>
+DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int gamma,
+                                 std::function<void(const double* b, double* x)> solve_coarsest) {
+  const int L = int(in.size());
+  gamma_ = gamma;
+  coarse = std::move(solve_coarsest);
+  levels.resize(L);
+  cells.resize(L);
+  stored.resize(L);
+  work.resize(L);
+  for (int l = 0; l < L; ++l) {
+    const auto& h = in[l].loop;
+    auto& d = levels[l];
+    d = h;
+    const auto n = std::size_t(h.num_copies);
+    d.mask = up(&doubles, h.mask, 3 * n);
+    d.diag_inv = up(&doubles, h.diag_inv, 9 * n);
+    if (l + 1 < L) {
+      d.prolong_coarse = up(&ints, h.prolong_coarse, 8 * n);
+      d.prolong_weight = up(&doubles, h.prolong_weight, 8 * n);
+      const auto nc = std::size_t(h.num_coarse);
+      const auto nr = std::size_t(h.restrict_offset[nc]);
+      d.restrict_offset = up(&ints, h.restrict_offset, nc + 1);
+      d.restrict_fine = up(&ints, h.restrict_fine, nr);
+      d.restrict_weight = up(&doubles, h.restrict_weight, nr);
+      cells[l] = in[l].cells;
+      if (l == 0) {
+        const auto& c = in[0].cells;
+        offsets0.assign(c.colour_offset, c.colour_offset + c.num_colours + 1);
+        fine = std::make_unique<DeviceFineCells>(*in[0].fine, in[0].tables, c);
+        cells[0].colour_offset = offsets0.data();
+      } else
+        stored[l] = std::make_unique<DeviceStoredCells>(in[l].packed_double,
+                                                        in[l].packed_single, cells[l]);
+    }
+    for (auto& w : work[l]) w = zeros(3 * std::size_t(h.num_local));
+  }
+  const auto nc = 3 * std::size_t(in[L - 1].loop.num_copies);
+  coarse_s.assign(nc, S(0));
+  coarse_b.assign(nc, 0.0);
+  coarse_x.assign(nc, 0.0);
+  host_b.assign(3 * std::size_t(in[0].loop.num_copies), S(0));
+}
+
+DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma, bool single,
+                         std::function<void(const double* b, double* x)> solve_coarsest) {
   const int L = int(levels.size());
   if (L < 1 || (L > 1 && !levels[0].fine))
     throw std::runtime_error("DeviceCycle: needs a level, and fine cells on level 0 above others");
-  e.gamma_ = gamma;
-  e.coarse = std::move(solve_coarsest);
-  e.levels.resize(L);
-  e.cells.resize(L);
-  e.stored.resize(L);
-  e.work.resize(L);
-  for (int l = 0; l < L; ++l) {
-    const auto& h = levels[l].loop;
-    auto& d = e.levels[l];
-    d = h;
-    const auto n = std::size_t(h.num_copies);
-    d.mask = e.up(&e.doubles, h.mask, 3 * n);
-    d.diag_inv = e.up(&e.doubles, h.diag_inv, 9 * n);
-    if (l + 1 < L) {
-      d.prolong_coarse = e.up(&e.ints, h.prolong_coarse, 8 * n);
-      d.prolong_weight = e.up(&e.doubles, h.prolong_weight, 8 * n);
-      const auto nc = std::size_t(h.num_coarse);
-      const auto nr = std::size_t(h.restrict_offset[nc]);
-      d.restrict_offset = e.up(&e.ints, h.restrict_offset, nc + 1);
-      d.restrict_fine = e.up(&e.ints, h.restrict_fine, nr);
-      d.restrict_weight = e.up(&e.doubles, h.restrict_weight, nr);
-      e.cells[l] = levels[l].cells;
-      if (l == 0) {
-        const auto& c = levels[0].cells;
-        e.offsets0.assign(c.colour_offset, c.colour_offset + c.num_colours + 1);
-        e.fine = std::make_unique<DeviceFineCells>(*levels[0].fine, levels[0].tables, c);
-        e.cells[0].colour_offset = e.offsets0.data();
-      } else
-        e.stored[l] = std::make_unique<DeviceStoredCells>(levels[l].packed_double,
-                                                          levels[l].packed_single, e.cells[l]);
-    }
-    for (auto& w : e.work[l]) w = e.zeros(3 * n);
-  }
-  e.coarse_b.assign(3 * std::size_t(levels[L - 1].loop.num_copies), 0.0);
-  e.coarse_x = e.coarse_b;
+  if (single)
+    ex_ = std::make_unique<Executor::Of<float>>(levels, gamma, std::move(solve_coarsest));
+  else
+    ex_ = std::make_unique<Executor::Of<double>>(levels, gamma, std::move(solve_coarsest));
 }
 
 DeviceCycle::~DeviceCycle() = default;
 
-void DeviceCycle::apply(const double* b, double* x) {
-  auto& e = *ex_;
-  const auto n = 3 * std::size_t(e.levels[0].num_copies);
-  check(cudaMemcpy(e.b(0), b, n * sizeof(double), cudaMemcpyHostToDevice), "cudaMemcpy to device");
-  multigrid::loop::cycle_level(e, 0, true);
-  check(cudaMemcpy(x, e.x(0), n * sizeof(double), cudaMemcpyDeviceToHost), "cudaMemcpy to host");
-}
+void DeviceCycle::apply(const double* b, double* x) { ex_->apply(b, x); }
 
-double DeviceCycle::time_cycle(int repeat) {
-  return median_seconds(repeat, [&] { multigrid::loop::cycle_level(*ex_, 0, true); });
-}
+double DeviceCycle::time_cycle(int repeat) { return ex_->time_cycle(repeat); }
 
 void cell_rotations(const std::int32_t* corners, std::int64_t num_cells, std::int64_t num_copies,
                     const double* u, double h, double* R) {
@@ -360,6 +410,11 @@ DeviceTiming time_fine_apply(const assembly::FineCellData& d, const FineTables& 
   const DeviceArray<double> X(ones.data(), values);
   DeviceArray<double> Y(ones.data(), values);
   t.fine_apply_seconds = median_seconds(repeat, [&] { A.apply_add(cells, X.get(), Y.get()); });
+  const std::vector<float> ones_single(values, 1.0f);
+  const DeviceArray<float> Xs(ones_single.data(), values);
+  DeviceArray<float> Ys(ones_single.data(), values);
+  t.fine_apply_single_seconds =
+      median_seconds(repeat, [&] { A.apply_add(cells, Xs.get(), Ys.get()); });
   const std::size_t n = copy_bytes / sizeof(double);
   const DeviceArray<double> cx(n);
   DeviceArray<double> cy(n);

@@ -70,7 +70,8 @@ inline void fine_apply_add(const assembly::FineCells& A, const backend::CellColo
 }
 
 /// -gmg_backend cuda (multigrid::Backend::cuda): the cycle of a Multigrid on device 0
-/// (DeviceCycle over Multigrid::loop_levels), made after each of its update()s.
+/// (DeviceCycle over Multigrid::loop_levels), made after each of its update()s; with
+/// -gmg_precision single its vectors are float (the single-precision V-cycle).
 class MultigridDeviceCycle : public multigrid::CycleBackend {
  public:
   /// Errors: those of Multigrid::loop_levels (PETSC_ERR_SUP with the reason where the loop-
@@ -79,6 +80,10 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
   static PetscErrorCode create(multigrid::Multigrid& mg,
                                std::unique_ptr<multigrid::CycleBackend>* out) {
     PetscFunctionBeginUser;
+    PetscMPIInt ranks;
+    PetscCallMPI(MPI_Comm_size(mg.comm(), &ranks));
+    PetscCheck(ranks == 1, mg.comm(), PETSC_ERR_SUP,
+               "-gmg_backend cuda: one MPI rank only (the device cycle has no halo exchange yet)");
     std::unique_ptr<MultigridDeviceCycle> c(new MultigridDeviceCycle(mg));
     PetscCall(mg.loop_levels(&c->arrays_));
     try {  // the uploads and host containers below throw; PETSc errors stay codes
@@ -105,7 +110,8 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
       }
       auto* self = c.get();
       c->cycle_ = std::make_unique<DeviceCycle>(
-          levels, mg.cycle_gamma(), [self](const double* b, double* x) {
+          levels, mg.cycle_gamma(), mg.precision() == multigrid::Precision::single,
+          [self](const double* b, double* x) {
             self->coarse_error_ = self->mg_.solve_coarsest(b, x);
             if (self->coarse_error_) throw std::runtime_error("coarsest solve");
           });

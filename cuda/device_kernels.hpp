@@ -74,10 +74,13 @@ struct DeviceCycleLevel {
 /// coarsest level solved by `solve_coarsest` on the host (b copied down, x copied up: the
 /// coarsest level is small, and the host's sparse factorization is what the host cycle uses
 /// too). Built once per set-up (uploads everything); each apply copies b in and x out.
+/// `single`: every level's work vectors in float (the single-precision V-cycle of mixed
+/// precision, as multigrid::HostLoopCycleSingle on the host: float loads, double arithmetic,
+/// one rounding per store; b rounded once on entry, the coarsest solve through double arrays).
 /// Throws std::runtime_error with the CUDA runtime's message when a call fails.
 class DeviceCycle {
  public:
-  DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
+  DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma, bool single,
               std::function<void(const double* b, double* x)> solve_coarsest);
   ~DeviceCycle();
   DeviceCycle(const DeviceCycle&) = delete;
@@ -94,10 +97,12 @@ class DeviceCycle {
 
 /// Device timings for the benchmarks (scripts/bench/operator_throughput.cpp), everything
 /// resident on device 0: the median of `repeat` fine applications y += A x (all colours, after
-/// one warm-up) [s], and the bandwidth of a copy kernel y = x over `copy_bytes` per array
-/// [bytes/s: bytes read + written over the median time], the STREAM-like reference.
+/// one warm-up) [s], with double and with float vectors (the single-precision V-cycle's), and
+/// the bandwidth of a copy kernel y = x over `copy_bytes` per array [bytes/s: bytes read +
+/// written over the median time], the STREAM-like reference.
 struct DeviceTiming {
   double fine_apply_seconds = 0;
+  double fine_apply_single_seconds = 0;
   double copy_bandwidth = 0;
   std::string device;  // the device's name
 };

@@ -65,6 +65,13 @@ template __global__ void check_functor<be::CellColourRows<mg::StoredCellOpsSingl
     be::CellColourRows<mg::StoredCellOpsSingle>, int);
 template __global__ void check_functor<be::CellDiagonal<mg::StoredCellOpsSingle>>(
     be::CellDiagonal<mg::StoredCellOpsSingle>, int);
+// The float vectors of the single-precision V-cycle (multigrid/loop_cycle.hpp).
+template __global__ void check_functor<be::CellApplyAdd<as::FineCellOps, float>>(
+    be::CellApplyAdd<as::FineCellOps, float>, int);
+template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOps, float>>(
+    be::CellApplyAdd<mg::StoredCellOps, float>, int);
+template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsSingle, float>>(
+    be::CellApplyAdd<mg::StoredCellOpsSingle, float>, int);
 
 // extern "C": readable names in the ptxas report.
 extern "C" {

@@ -2,12 +2,15 @@
 //  - assembled: PETSc MatMult on the AIJ matrix (block size 3, inodes);
 //  - matrix-free: hexcut's multigrid fine operator (per-material K, no 24x24 per cell),
 //    with identity rotations (linear) and with rotations (corotational);
+//  - the same fine cells' y += A x on plain arrays with double and with float vectors (the
+//    single-precision V-cycle's: the cells' data and arithmetic stay double);
 //  - the multigrid's level 1 (stored Galerkin blocks), with the blocks shared by equal
 //    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false),
 //    each in double and in float (-gmg_precision single);
 //  - built with the CUDA backend (cuda/CMakeLists.txt) and a device visible: the fine operator
 //    on the device (the same FineCellOps body, colour by colour, data resident), with and
-//    without rotations, against a copy kernel's bandwidth in the same run (issue 13's
+//    without rotations, with double and float vectors, against a copy kernel's bandwidth in
+//    the same run (issue 13's
 //    "fraction of the measured bandwidth"); otherwise one line saying why not.
 // Usage: hexcut_bench_operator [-n CELLS_ACROSS (24)] [-repeat R (20)]
 // Prints a table of median times over R applications, measured side by side.
@@ -22,6 +25,7 @@
 
 #include "analysis/model.hpp"
 #include "assembly/boundary.hpp"
+#include "assembly/fine_cells.hpp"
 #include "assembly/operator.hpp"
 #include "common/petsc_check.hpp"
 #include "deck/deck.hpp"
@@ -88,6 +92,20 @@ int main(int argc, char** argv) {
         median_seconds(int(repeat), [&] { check_petsc(MatMult(A, x, y), "MatMult"); });
     const double t_mf =
         median_seconds(int(repeat), [&] { check_petsc(mg.apply_fine(x, y), "apply"); });
+    // The fine cells' y += A x on plain local arrays, with double and with float vectors (the
+    // single-precision V-cycle's, -gmg_backend host_loop -gmg_precision single): the same
+    // cells and arithmetic, only the vectors' bytes differ.
+    double t_fine_vectors[2];
+    {
+      const assembly::FineCells fine(model.layout, model.cells, w, true);
+      const auto values = 3 * std::size_t(fine.layout().num_local());
+      std::vector<double> xd(values, 1.0), yd(values, 0.0);
+      std::vector<float> xs(values, 1.0f), ys(values, 0.0f);
+      t_fine_vectors[0] =
+          median_seconds(int(repeat), [&] { fine.apply_add(xd.data(), yd.data()); });
+      t_fine_vectors[1] =
+          median_seconds(int(repeat), [&] { fine.apply_add(xs.data(), ys.data()); });
+    }
     // Level 1's stored cells, shared and a block per cell (two hierarchies side by side).
     struct LevelTiming {
       double seconds;
@@ -151,6 +169,8 @@ int main(int argc, char** argv) {
     row("assembled AIJ MatMult", t_aij, matrix_bytes);
     row("matrix-free, identity rotations", t_mf, mf_bytes);
     row("matrix-free, with rotations", t_mf_rot, mf_rot_bytes);
+    row("fine cells, double vectors", t_fine_vectors[0], mf_bytes);
+    row("fine cells, float vectors", t_fine_vectors[1], mf_bytes);
     // Level 1: MDOF/s of level 1's DOFs; bytes/DOF of its packed blocks (300 numbers each).
     const auto level_row = [&](const char* name, const LevelTiming& t, double bytes) {
       PetscPrintf(PETSC_COMM_WORLD, "%-34s %10.2f %12.2f %14.1f   (%d cells, %d blocks)\n", name,
@@ -178,15 +198,20 @@ int main(int argc, char** argv) {
         const auto arrays = cuda::fine_cell_arrays(fine, colours, &tables);
         const auto t =
             cuda::time_fine_apply(fine.data(), tables, arrays, int(repeat), std::size_t(1) << 28);
-        const double bytes = 24.0 * double(N) + cells * (rotated ? 108.0 : 36.0);
-        PetscPrintf(PETSC_COMM_WORLD,
-                    "%-34s %10.3f %12.1f %14.1f   (%.0f GB/s: %.0f %% of the copy kernel's %.0f "
-                    "GB/s, %s)\n",
-                    rotated ? "device, with rotations" : "device, identity rotations",
-                    1e3 * t.fine_apply_seconds, 1e-6 * double(N) / t.fine_apply_seconds,
-                    bytes / double(N), 1e-9 * bytes / t.fine_apply_seconds,
-                    100.0 * bytes / t.fine_apply_seconds / t.copy_bandwidth,
-                    1e-9 * t.copy_bandwidth, t.device.c_str());
+        for (const bool single : {false, true}) {
+          // Float vectors: 12 bytes per DOF instead of 24; the cells' bytes are the same.
+          const double bytes =
+              (single ? 12.0 : 24.0) * double(N) + cells * (rotated ? 108.0 : 36.0);
+          const double s = single ? t.fine_apply_single_seconds : t.fine_apply_seconds;
+          const std::string name = std::string(rotated ? "device, with rotations" : "device, identity rotations") +
+                                   (single ? ", float" : "");
+          PetscPrintf(PETSC_COMM_WORLD,
+                      "%-34s %10.3f %12.1f %14.1f   (%.0f GB/s: %.0f %% of the copy kernel's "
+                      "%.0f GB/s, %s)\n",
+                      name.c_str(), 1e3 * s, 1e-6 * double(N) / s, bytes / double(N),
+                      1e-9 * bytes / s, 100.0 * bytes / s / t.copy_bandwidth,
+                      1e-9 * t.copy_bandwidth, t.device.c_str());
+        }
       }
     } else {
       PetscPrintf(PETSC_COMM_WORLD, "device rows: not measured (%s)\n",

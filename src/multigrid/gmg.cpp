@@ -45,7 +45,8 @@ CycleBackendFactory device_cycle_factory() {
 }
 
 const char* loop_cycle_refusal(const Options& o, int ranks) {
-  return ranks > 1                                     ? "more than one MPI rank"
+  // The host executor exchanges ghosts through MPI; the device executor has no halo yet.
+  return ranks > 1 && o.backend == Backend::cuda       ? "more than one MPI rank"
          : o.first_level > 0                           ? "composite elements"
          : o.smoother != Smoother::chebyshev           ? "-gmg_smoother gs"
          : o.interpolation != Interpolation::trilinear ? "-gmg_interpolation energy or smoothed"
@@ -546,57 +547,103 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
              "backend does",
              why);
   const int L = num_levels();
+  for (int l = 0; l + 1 < L; ++l)
+    PetscCheck(cell_operator(l), comm_, PETSC_ERR_SUP,
+               "gmg: the loop-layer cycle needs cells on level %d, which is assembled", l);
   out->clear();
   out->resize(L);
+  // Per level: the coarse copies its finer level's transfer reaches that are neither owned nor
+  // ghosts of its cells (global blocks), appended after the layout's ghosts.
+  std::vector<std::vector<PetscInt>> extra(L);
   for (int l = 0; l < L; ++l) {
     auto& a = (*out)[l];
     const auto& D = levels_[l].layout();
-    // One rank: the cells' corners index the owned copies only, which the arrays hold.
-    PetscCheck(D.num_local() == D.num_owned, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-               "gmg: level %d has ghost copies on one rank", l);
+    const auto owner = [&D](PetscInt g) {
+      return int(std::upper_bound(D.owned_begin.begin(), D.owned_begin.end(), g) -
+                 D.owned_begin.begin()) - 1;
+    };
+    for (std::int32_t i = D.num_owned; i < D.num_local(); ++i) {
+      const PetscInt g = D.global_block[std::size_t(D.copies[std::size_t(i)])];
+      a.ghost_rank.push_back(owner(g));
+      a.ghost_index.push_back(std::int32_t(g - D.owned_begin[std::size_t(owner(g))]));
+    }
+    for (const PetscInt g : extra[l]) {
+      a.ghost_rank.push_back(owner(g));
+      a.ghost_index.push_back(std::int32_t(g - D.owned_begin[std::size_t(owner(g))]));
+    }
     const PetscScalar* m;
     PetscCall(VecGetArrayRead(data_[l]->mask, &m));
     a.mask.assign(m, m + 3 * std::size_t(D.num_owned));
     PetscCall(VecRestoreArrayRead(data_[l]->mask, &m));
     a.view.num_copies = D.num_owned;
+    a.view.num_local = D.num_local() + std::int64_t(extra[l].size());
     a.view.diag_inv = data_[l]->diag_inv.empty() ? nullptr : data_[l]->diag_inv.data();
     a.view.lambda_max = data_[l]->lambda_max;
     a.view.presmooth = degree(l, opt_.presmooth);
     a.view.postsmooth = degree(l, opt_.postsmooth);
     if (l + 1 < L) {
-      // The weights the cycle's interpolation holds (the scalar AIJ inside the MAIJ; one rank,
-      // so its rows and columns are the fine and coarse copies in the layouts' order).
+      // The weights the cycle's interpolation holds: the scalar AIJ inside the MAIJ, whose rows
+      // are this rank's owned fine copies and whose columns are coarse global blocks (on more
+      // ranks, in its diagonal part the owned coarse copies, in its off-diagonal part others).
       const auto& C = levels_[l + 1].layout();
-      Mat S;
+      const PetscInt coarse_begin = C.first_owned_block();
+      std::map<PetscInt, std::int32_t> local_of;  // coarse ghosts: global block -> local copy
+      for (std::int32_t i = C.num_owned; i < C.num_local(); ++i)
+        local_of[C.global_block[std::size_t(C.copies[std::size_t(i)])]] = i;
+      const auto coarse_local = [&](PetscInt g) {
+        if (g >= coarse_begin && g < coarse_begin + C.num_owned)
+          return std::int32_t(g - coarse_begin);
+        const auto [it, added] =
+            local_of.emplace(g, C.num_local() + std::int32_t(extra[l + 1].size()));
+        if (added) extra[l + 1].push_back(g);
+        return it->second;
+      };
+      Mat S, parts[2] = {nullptr, nullptr};
+      const PetscInt* colmap = nullptr;
       PetscCall(MatMAIJGetAIJ(data_[l]->P, &S));
-      PetscInt rows;
-      const PetscInt *ia, *ja;
-      PetscBool done;
-      PetscCall(MatGetRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-      bool shape_ok = done && rows == D.num_owned;
-      for (PetscInt f = 0; shape_ok && f < rows; ++f) shape_ok = ia[f + 1] - ia[f] <= 8;
-      if (!shape_ok) {
-        if (done)
-          PetscCall(MatRestoreRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-        SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                "gmg: level %d's interpolation is not one row of at most 8 weights per copy", l);
-      }
-      const PetscScalar* w;
-      PetscCall(MatSeqAIJGetArrayRead(S, &w));
+      PetscBool mpi;
+      PetscCall(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(S), MATMPIAIJ, &mpi));
+      if (mpi)
+        PetscCall(MatMPIAIJGetSeqAIJ(S, &parts[0], &parts[1], &colmap));
+      else
+        parts[0] = S;
       a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
       a.prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
-      a.restrict_offset.assign(std::size_t(C.num_owned) + 1, 0);
-      for (PetscInt f = 0; f < rows; ++f) {
-        for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
-          a.prolong_coarse[8 * std::size_t(f) + (k - ia[f])] = std::int32_t(ja[k]);
-          a.prolong_weight[8 * std::size_t(f) + (k - ia[f])] = w[k];
-          ++a.restrict_offset[std::size_t(ja[k]) + 1];
+      std::vector<int> filled(std::size_t(D.num_owned), 0);
+      for (int part = 0; part < 2; ++part) {
+        if (!parts[part]) continue;
+        PetscInt rows;
+        const PetscInt *ia, *ja;
+        PetscBool done;
+        PetscCall(MatGetRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+        bool shape_ok = done && rows == D.num_owned;
+        for (PetscInt f = 0; shape_ok && f < rows; ++f)
+          shape_ok = filled[std::size_t(f)] + (ia[f + 1] - ia[f]) <= 8;
+        if (!shape_ok) {
+          if (done)
+            PetscCall(
+                MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+          SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                  "gmg: level %d's interpolation is not one row of at most 8 weights per copy", l);
         }
+        const PetscScalar* w;
+        PetscCall(MatSeqAIJGetArrayRead(parts[part], &w));
+        for (PetscInt f = 0; f < rows; ++f)
+          for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
+            const PetscInt g = part == 0 ? (mpi ? coarse_begin + ja[k] : ja[k]) : colmap[ja[k]];
+            const auto j = 8 * std::size_t(f) + std::size_t(filled[std::size_t(f)]++);
+            a.prolong_coarse[j] = coarse_local(g);
+            a.prolong_weight[j] = w[k];
+          }
+        PetscCall(MatSeqAIJRestoreArrayRead(parts[part], &w));
+        PetscCall(MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
       }
-      PetscCall(MatSeqAIJRestoreArrayRead(S, &w));
-      PetscCall(MatRestoreRowIJ(S, 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-      for (std::int32_t c = 0; c < C.num_owned; ++c)
-        a.restrict_offset[c + 1] += a.restrict_offset[c];
+      // The restriction: the same weights gathered per coarse local copy (ghosts included).
+      const auto num_coarse = std::size_t(C.num_local()) + extra[l + 1].size();
+      a.restrict_offset.assign(num_coarse + 1, 0);
+      for (const auto c : a.prolong_coarse)
+        if (c >= 0) ++a.restrict_offset[std::size_t(c) + 1];
+      for (std::size_t c = 0; c < num_coarse; ++c) a.restrict_offset[c + 1] += a.restrict_offset[c];
       a.restrict_fine.resize(std::size_t(a.restrict_offset.back()));
       a.restrict_weight.resize(a.restrict_fine.size());
       std::vector<std::int32_t> next(a.restrict_offset.begin(), a.restrict_offset.end() - 1);
@@ -606,7 +653,7 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
           a.restrict_fine[next[c]] = f;
           a.restrict_weight[next[c]++] = a.prolong_weight[8 * std::size_t(f) + k];
         }
-      a.view.num_coarse = C.num_owned;
+      a.view.num_coarse = std::int64_t(num_coarse);
       a.view.prolong_coarse = a.prolong_coarse.data();
       a.view.prolong_weight = a.prolong_weight.data();
       a.view.restrict_offset = a.restrict_offset.data();

@@ -47,8 +47,9 @@ class Multigrid;
 struct Options;
 
 /// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
-/// `ranks` ranks, or null: it runs one rank, Chebyshev on point-block Jacobi, trilinear
-/// interpolation, fine hexahedra (no composite elements).
+/// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi, trilinear interpolation,
+/// fine hexahedra (no composite elements), on any number of ranks on the host and on one rank
+/// with Backend::cuda.
 const char* loop_cycle_refusal(const Options& o, int ranks);
 
 /// A cycle run elsewhere than on PETSc vectors (Backend::host_loop, Backend::cuda): x = M^-1 b
@@ -267,12 +268,19 @@ class Multigrid {
   /// The cycle's levels as plain arrays for the loop-layer cycle (multigrid/loop_cycle.hpp,
   /// the host and CUDA backends of issue 13), after update(): per level its mask, diagonal
   /// blocks, lambda_max, Chebyshev degrees and the transfer from the next level, in the
-  /// layout's copy order. Refused (PETSC_ERR_SUP, with the reason) where that cycle is not
-  /// the one cycle() runs: more than one rank, composite elements, Gauss-Seidel, Schwarz
-  /// patches, energy-minimizing or smoothed interpolation.
+  /// layout's copy order (owned copies, then the layout's ghosts, then the coarse copies a
+  /// transfer reaches beyond those; LoopLevelArrays::ghost_rank/ghost_index connect the ghosts
+  /// to their owners). Refused (PETSC_ERR_SUP, with the reason) where that cycle is not the one
+  /// cycle() runs: composite elements, Gauss-Seidel, Schwarz patches, energy-minimizing or
+  /// smoothed interpolation, an assembled level (and -gmg_backend cuda on more than one rank).
   PetscErrorCode loop_levels(std::vector<LoopLevelArrays>* out) const;
   /// Options::cycle_gamma: 1 V-cycle, 2 W-cycle.
   int cycle_gamma() const { return opt_.cycle_gamma; }
+  /// The communicator the hierarchy lives on.
+  MPI_Comm comm() const { return comm_; }
+  /// Options::precision: Precision::single, the coarse blocks in float (and, on the loop-layer
+  /// backends, the cycle's vectors).
+  Precision precision() const { return opt_.precision; }
 
  private:
   struct LevelData;

@@ -4,14 +4,52 @@
 
 namespace hexcut::multigrid {
 
+namespace {
+
+template <class S>
+MPI_Datatype mpi_type() {
+  return std::is_same_v<S, double> ? MPI_DOUBLE : MPI_FLOAT;
+}
+
+/// The star forest of one level's ghosts (null without ghosts on any rank): leaves the 3 DOFs
+/// of each ghost copy (local entries from 3 num_copies on), roots its owner's 3 DOFs.
+PetscErrorCode ghost_sf(MPI_Comm comm, const LoopLevelArrays& a, PetscSF* sf) {
+  PetscFunctionBeginUser;
+  *sf = nullptr;
+  const auto n = std::int64_t(a.ghost_rank.size());
+  std::int64_t any = n;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT64_T, MPI_MAX, comm));
+  if (any == 0) PetscFunctionReturn(0);
+  std::vector<PetscInt> leaf(std::size_t(3 * n));
+  std::vector<PetscSFNode> root(std::size_t(3 * n));
+  for (std::int64_t g = 0; g < n; ++g)
+    for (int c = 0; c < 3; ++c) {
+      const auto k = std::size_t(3 * g + c);
+      leaf[k] = PetscInt(3 * (a.view.num_copies + g) + c);
+      root[k].rank = a.ghost_rank[std::size_t(g)];
+      root[k].index = PetscInt(3 * std::int64_t(a.ghost_index[std::size_t(g)]) + c);
+    }
+  PetscCall(PetscSFCreate(comm, sf));
+  PetscCall(PetscSFSetGraph(*sf, PetscInt(3 * a.view.num_copies), PetscInt(3 * n), leaf.data(),
+                            PETSC_COPY_VALUES, root.data(), PETSC_COPY_VALUES));
+  PetscCall(PetscSFSetUp(*sf));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
 template <class S>
 PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out) {
   PetscFunctionBeginUser;
   std::unique_ptr<HostLoopCycleOf> c(new HostLoopCycleOf(mg));
   PetscCall(mg.loop_levels(&c->levels_));
-  c->work_.resize(c->levels_.size());
-  for (std::size_t l = 0; l < c->levels_.size(); ++l)
-    for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_copies), S(0));
+  const auto L = c->levels_.size();
+  c->work_.resize(L);
+  c->ghosts_.assign(L, nullptr);
+  for (std::size_t l = 0; l < L; ++l) {
+    for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_local), S(0));
+    PetscCall(ghost_sf(mg.comm(), c->levels_[l], &c->ghosts_[l]));
+  }
   if (!std::is_same_v<S, double>) {
     const auto n = 3 * std::size_t(c->levels_.back().view.num_copies);
     c->coarse_b_.resize(n);
@@ -22,16 +60,36 @@ PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoo
 }
 
 template <class S>
+HostLoopCycleOf<S>::~HostLoopCycleOf() {
+  for (auto& sf : ghosts_) PetscSFDestroy(&sf);
+}
+
+template <class S>
+void HostLoopCycleOf<S>::exchange(int l, S* x) {
+  PetscSF sf = ghosts_[std::size_t(l)];
+  if (!sf || error_) return;
+  error_ = PetscSFBcastBegin(sf, mpi_type<S>(), x, x, MPI_REPLACE);
+  if (!error_) error_ = PetscSFBcastEnd(sf, mpi_type<S>(), x, x, MPI_REPLACE);
+}
+
+template <class S>
+void HostLoopCycleOf<S>::accumulate(int l, S* y) {
+  PetscSF sf = ghosts_[std::size_t(l)];
+  if (!sf || error_) return;
+  error_ = PetscSFReduceBegin(sf, mpi_type<S>(), y, y, MPI_SUM);
+  if (!error_) error_ = PetscSFReduceEnd(sf, mpi_type<S>(), y, y, MPI_SUM);
+}
+
+template <class S>
 void HostLoopCycleOf<S>::solve_coarsest(const S* b, S* x) {
-  // The executor interface has no error channel: the first PETSc error is kept for apply().
-  if (coarse_error_) return;
+  if (error_) return;
   if constexpr (std::is_same_v<S, double>) {
-    coarse_error_ = mg_.solve_coarsest(b, x);
+    error_ = mg_.solve_coarsest(b, x);
   } else {
     // The factorization is double's: the coarsest level's vectors (a few thousand DOFs) pass
     // through double arrays.
     std::copy(b, b + coarse_b_.size(), coarse_b_.begin());
-    coarse_error_ = mg_.solve_coarsest(coarse_b_.data(), coarse_x_.data());
+    error_ = mg_.solve_coarsest(coarse_b_.data(), coarse_x_.data());
     std::copy(coarse_x_.begin(), coarse_x_.end(), x);
   }
 }
@@ -39,12 +97,12 @@ void HostLoopCycleOf<S>::solve_coarsest(const S* b, S* x) {
 template <class S>
 PetscErrorCode HostLoopCycleOf<S>::apply(const double* b, double* x) {
   PetscFunctionBeginUser;
-  auto& b0 = work_[0][0];
-  std::copy(b, b + b0.size(), b0.begin());
-  coarse_error_ = 0;
+  const auto n = 3 * std::size_t(levels_[0].view.num_copies);  // owned DOFs
+  std::copy(b, b + n, work_[0][0].begin());
+  error_ = 0;
   loop::cycle_level(*this, 0, true);
-  PetscCall(coarse_error_);
-  std::copy(work_[0][1].begin(), work_[0][1].end(), x);
+  PetscCall(error_);
+  std::copy_n(work_[0][1].begin(), n, x);
   PetscFunctionReturn(0);
 }
 

@@ -8,8 +8,14 @@
 // HostLoopCycleOf<float> (HostLoopCycleSingle) is the single-precision V-cycle of mixed
 // precision (-gmg_backend host_loop -gmg_precision single; doc/theory.md, "Mixed precision"):
 // every level's work vectors in float, the outer CG in double.
+//
+// On more ranks each level's vectors hold the rank's owned copies and its ghosts
+// (LoopLevel::num_local), and exchange()/accumulate() are a star forest per level (PetscSF on
+// the arrays themselves, 3 values per ghost: broadcast from the owners, reduced into them), so
+// the cycle is Multigrid::cycle's on any number of ranks.
 #pragma once
 
+#include <petscsf.h>
 #include <petscsys.h>
 
 #include <array>
@@ -30,6 +36,7 @@ class HostLoopCycleOf : public CycleBackend {
   /// The cycle of `mg` (after its update(); it must outlive this). Errors: those of
   /// Multigrid::loop_levels (PETSC_ERR_SUP where the loop-layer cycle does not apply).
   static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out);
+  ~HostLoopCycleOf() override;
   HostLoopCycleOf(const HostLoopCycleOf&) = delete;
   HostLoopCycleOf& operator=(const HostLoopCycleOf&) = delete;
 
@@ -51,6 +58,8 @@ class HostLoopCycleOf : public CycleBackend {
   }
   void apply_add(int l, const S* x, S* y) { mg_.cell_operator(l)->apply_add(x, y); }
   void solve_coarsest(const S* b, S* x);
+  void exchange(int l, S* x);
+  void accumulate(int l, S* y);
 
  private:
   explicit HostLoopCycleOf(Multigrid& mg) : mg_(mg) {}
@@ -58,7 +67,10 @@ class HostLoopCycleOf : public CycleBackend {
   std::vector<LoopLevelArrays> levels_;
   std::vector<std::array<std::vector<S>, 4>> work_;  // b, x, r, dir per level
   std::vector<double> coarse_b_, coarse_x_;          // float: the coarsest solve's, in double
-  PetscErrorCode coarse_error_ = 0;
+  std::vector<PetscSF> ghosts_;  // per level: roots the owned DOFs, leaves the ghost DOFs
+  // The first PETSc error of solve_coarsest, exchange or accumulate (the executor interface
+  // has no error channel), returned by apply().
+  PetscErrorCode error_ = 0;
 };
 
 using HostLoopCycle = HostLoopCycleOf<double>;

@@ -13,6 +13,13 @@
 //   void for_each(std::int64_t n, const K& k);      k(i) for i < n (any order, no races)
 //   void apply_add(int l, const Scalar* x, Scalar* y);  y += A_l x, the level's cells
 //   void solve_coarsest(const Scalar* b, Scalar* x);    x = A_c^-1 b on the last level
+//   void exchange(int l, Scalar* x);     the ghost entries of x get their owners' values
+//   void accumulate(int l, Scalar* y);   the ghost entries of y are added into their owners
+// A level's vectors hold its owned copies first, then its ghost copies (LoopLevel::num_local
+// in all): the copies its rank's cells touch and the coarse copies its transfers reach. The
+// pointwise bodies run on the owned copies; the cells scatter into ghosts too, and
+// accumulate() sums those into the owners (on one rank there are no ghosts, and exchange and
+// accumulate do nothing).
 // With Scalar = float the cycle is the single-precision V-cycle of mixed precision (doc/theory.md,
 // "Mixed precision"): vectors in float, each pointwise body computing in double from float
 // loads and rounding once per store; the level data (diagonal blocks, mask, weights) stay double.
@@ -30,7 +37,8 @@ namespace hexcut::multigrid {
 /// fine copy, -1 unused) and, for the restriction, the same weights gathered per coarse copy
 /// (CSR), so neither direction scatters and both backends sum in one fixed order.
 struct LoopLevel {
-  std::int64_t num_copies = 0;        // 3 DOFs each
+  std::int64_t num_copies = 0;        // owned copies, 3 DOFs each
+  std::int64_t num_local = 0;         // owned + ghost copies: the vectors' length / 3
   const double* diag_inv = nullptr;   // 9 per copy: inverted 3x3 diagonal blocks (row-major)
   const double* mask = nullptr;       // 3 per copy: 1 free, 0 prescribed or dead (identity row)
   double lambda_max = 0;              // of D^-1 A (power iteration, Multigrid::estimate_lambda_max)
@@ -38,7 +46,7 @@ struct LoopLevel {
   // Transfer from level l+1 (null on the coarsest level).
   const std::int32_t* prolong_coarse = nullptr;   // 8 per copy of this level
   const double* prolong_weight = nullptr;         // 8 per copy of this level
-  std::int64_t num_coarse = 0;                    // copies of level l+1
+  std::int64_t num_coarse = 0;                    // local copies of level l+1 (with ghosts)
   const std::int32_t* restrict_offset = nullptr;  // num_coarse + 1
   const std::int32_t* restrict_fine = nullptr;    // fine copies of each coarse copy
   const double* restrict_weight = nullptr;
@@ -54,6 +62,10 @@ struct LoopLevelArrays {
   LoopLevelArrays(LoopLevelArrays&&) = default;
   LoopLevelArrays& operator=(LoopLevelArrays&&) = default;
   LoopLevel view;  // its pointers into the vectors below
+  // Per ghost copy (local copies num_copies..num_local-1, in order): the rank that owns it and
+  // its index among that rank's owned copies (what exchange() and accumulate() connect).
+  std::vector<int> ghost_rank;
+  std::vector<std::int32_t> ghost_index;
   std::vector<double> mask;
   std::vector<std::int32_t> prolong_coarse;
   std::vector<double> prolong_weight;
@@ -158,12 +170,15 @@ struct ProlongAdd {
 
 namespace loop {
 
-/// r = b - A_l x (masked: zero where the mask is 0).
+/// r = b - A_l x on the owned copies (masked: zero where the mask is 0); x's ghosts are
+/// refreshed first.
 template <class Exec, class V = typename Exec::Scalar>
-void residual(Exec& ex, int l, const V* b, const V* x, V* r, bool masked) {
+void residual(Exec& ex, int l, const V* b, V* x, V* r, bool masked) {
   const LoopLevel& L = ex.level(l);
-  ex.for_each(L.num_copies, Zero<V>{r});
+  ex.for_each(L.num_local, Zero<V>{r});  // the ghosts too: the cells scatter into them
+  ex.exchange(l, x);
   ex.apply_add(l, x, r);
+  ex.accumulate(l, r);
   ex.for_each(L.num_copies, Residual<V>{b, x, L.mask, masked, r});
 }
 
@@ -203,10 +218,14 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   if (zero_guess) ex.for_each(L.num_copies, Zero<V>{x});
   if (L.presmooth > 0) chebyshev(ex, l, b, x, L.presmooth);
   residual(ex, l, b, x, r, true);
+  // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
+  // included, and the ghosts' partial sums go to their owners.
   ex.for_each(L.num_coarse,
               Restrict<V>{L.restrict_offset, L.restrict_fine, L.restrict_weight, r, ex.b(l + 1)});
+  ex.accumulate(l + 1, ex.b(l + 1));
   const int visits = l + 2 == levels ? 1 : ex.gamma();
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
+  ex.exchange(l + 1, ex.x(l + 1));
   ex.for_each(L.num_copies,
               ProlongAdd<V>{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
   if (L.postsmooth > 0) chebyshev(ex, l, b, x, L.postsmooth);
