@@ -120,6 +120,15 @@ class DeviceFineCells {
     const backend::CellApplyAdd<assembly::FineCellOps, V> k{{d_}, d_.corners, x, y};
     launch_colours(k, order_->get(), cells);
   }
+  /// The rows of the copies of parity colour k only (`position`: the cells' lattice positions
+  /// on the device), launched cell colour by cell colour (no synchronization).
+  template <class V>
+  void apply_add_colour(const CellArrays& cells, const int* position, int k, const V* x,
+                        V* y) const {
+    if (cells.num_cells == 0) return;
+    using Rows = backend::CellColourRows<assembly::FineCellOps, V>;
+    launch_colours(Rows{{d_}, d_.corners, position, k, x, y}, order_->get(), cells);
+  }
 
  private:
   assembly::FineCellData d_;
@@ -157,6 +166,22 @@ class DeviceStoredCells {
       launch_colours(
           backend::CellApplyAdd<multigrid::StoredCellOpsSingle, V>{
               {packed_single_, block_of_}, corners_, x, y},
+          order_, cells_);
+  }
+  /// The rows of the copies of parity colour k only (`position`: the cells' level positions on
+  /// the device; no synchronization).
+  template <class V>
+  void apply_add_colour(const int* position, int k, const V* x, V* y) const {
+    if (cells_.num_cells == 0) return;
+    if (packed_double_)
+      launch_colours(
+          backend::CellColourRows<multigrid::StoredCellOps, V>{
+              {packed_double_, block_of_}, corners_, position, k, x, y},
+          order_, cells_);
+    else
+      launch_colours(
+          backend::CellColourRows<multigrid::StoredCellOpsSingle, V>{
+              {packed_single_, block_of_}, corners_, position, k, x, y},
           order_, cells_);
   }
 
@@ -240,6 +265,7 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::unique_ptr<DeviceFineCells> fine;
   std::vector<std::unique_ptr<DeviceStoredCells>> stored;  // per level (null on 0 and the last)
   std::vector<std::array<S*, 4>> work;                     // b, x, r, dir per level
+  std::vector<const int*> positions;                       // per level: 3 per cell (GS)
   int gamma_ = 1;
   std::function<void(const double*, double*)> coarse;
   std::vector<S> coarse_s;                 // the coarsest level's b, then x, as on the device
@@ -279,6 +305,12 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
       fine->apply_add(cells[0], xd, yd);
     else
       stored[l]->apply_add(xd, yd);
+  }
+  void apply_add_colour(int l, int k, const S* xd, S* yd) {
+    if (l == 0)
+      fine->apply_add_colour(cells[0], positions[0], k, xd, yd);
+    else
+      stored[l]->apply_add_colour(positions[l], k, xd, yd);
   }
   // One rank (MultigridDeviceCycle refuses more): no ghosts to exchange.
   void exchange(int, S*) {}
@@ -324,6 +356,7 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
   cells.resize(L);
   stored.resize(L);
   work.resize(L);
+  positions.assign(L, nullptr);
   for (int l = 0; l < L; ++l) {
     const auto& h = in[l].loop;
     auto& d = levels[l];
@@ -331,6 +364,7 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
     const auto n = std::size_t(h.num_copies);
     d.mask = up(&doubles, h.mask, 3 * n);
     d.diag_inv = up(&doubles, h.diag_inv, 9 * n);
+    d.colour_copy = up(&ints, h.colour_copy, std::size_t(h.colour_begin[8]));
     if (l + 1 < L) {
       d.prolong_coarse = up(&ints, h.prolong_coarse, 8 * n);
       d.prolong_weight = up(&doubles, h.prolong_weight, 8 * n);
@@ -340,14 +374,15 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
       d.restrict_fine = up(&ints, h.restrict_fine, nr);
       d.restrict_weight = up(&doubles, h.restrict_weight, nr);
       cells[l] = in[l].cells;
+      positions[l] = up(&ints, in[l].position, 3 * std::size_t(in[l].cells.num_cells));
       if (l == 0) {
         const auto& c = in[0].cells;
         offsets0.assign(c.colour_offset, c.colour_offset + c.num_colours + 1);
         fine = std::make_unique<DeviceFineCells>(*in[0].fine, in[0].tables, c);
         cells[0].colour_offset = offsets0.data();
       } else
-        stored[l] = std::make_unique<DeviceStoredCells>(in[l].packed_double,
-                                                        in[l].packed_single, cells[l]);
+        stored[l] =
+            std::make_unique<DeviceStoredCells>(in[l].packed_double, in[l].packed_single, cells[l]);
     }
     for (auto& w : work[l]) w = zeros(3 * std::size_t(h.num_local));
   }
@@ -371,9 +406,13 @@ DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma,
 
 DeviceCycle::~DeviceCycle() = default;
 
-void DeviceCycle::apply(const double* b, double* x) { ex_->apply(b, x); }
+void DeviceCycle::apply(const double* b, double* x) {
+  ex_->apply(b, x);
+}
 
-double DeviceCycle::time_cycle(int repeat) { return ex_->time_cycle(repeat); }
+double DeviceCycle::time_cycle(int repeat) {
+  return ex_->time_cycle(repeat);
+}
 
 void cell_rotations(const std::int32_t* corners, std::int64_t num_cells, std::int64_t num_copies,
                     const double* u, double h, double* R) {

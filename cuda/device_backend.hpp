@@ -95,6 +95,7 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
         d.loop = c->arrays_[l].view;
         if (l + 1 == L) continue;  // the coarsest level is solved on the host
         c->colours_[l] = backend::colour_cells(mg.cell_positions(l));
+        d.position = mg.cell_positions(l).empty() ? nullptr : mg.cell_positions(l)[0].data();
         if (l == 0) {
           const auto* fine = dynamic_cast<const assembly::FineCells*>(mg.cell_operator(0));
           PetscCheck(fine, PETSC_COMM_SELF, PETSC_ERR_PLIB, "gmg: level 0 has no fine cells");

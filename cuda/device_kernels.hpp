@@ -67,6 +67,7 @@ struct DeviceCycleLevel {
   FineTables tables;
   const double* packed_double = nullptr;
   const float* packed_single = nullptr;
+  const int* position = nullptr;  // 3 per cell: lattice or level position (Gauss-Seidel)
 };
 
 /// The multigrid cycle (multigrid::loop::cycle_level, the host's algorithm and bodies) with

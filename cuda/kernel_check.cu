@@ -72,6 +72,10 @@ template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOps, float
     be::CellApplyAdd<mg::StoredCellOps, float>, int);
 template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsSingle, float>>(
     be::CellApplyAdd<mg::StoredCellOpsSingle, float>, int);
+template __global__ void check_functor<be::CellColourRows<as::FineCellOps, float>>(
+    be::CellColourRows<as::FineCellOps, float>, int);
+template __global__ void check_functor<be::CellColourRows<mg::StoredCellOpsSingle, float>>(
+    be::CellColourRows<mg::StoredCellOpsSingle, float>, int);
 
 // extern "C": readable names in the ptxas report.
 extern "C" {

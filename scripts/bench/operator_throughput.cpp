@@ -203,8 +203,9 @@ int main(int argc, char** argv) {
           const double bytes =
               (single ? 12.0 : 24.0) * double(N) + cells * (rotated ? 108.0 : 36.0);
           const double s = single ? t.fine_apply_single_seconds : t.fine_apply_seconds;
-          const std::string name = std::string(rotated ? "device, with rotations" : "device, identity rotations") +
-                                   (single ? ", float" : "");
+          const std::string name =
+              std::string(rotated ? "device, with rotations" : "device, identity rotations") +
+              (single ? ", float" : "");
           PetscPrintf(PETSC_COMM_WORLD,
                       "%-34s %10.3f %12.1f %14.1f   (%.0f GB/s: %.0f %% of the copy kernel's "
                       "%.0f GB/s, %s)\n",

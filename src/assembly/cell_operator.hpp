@@ -58,6 +58,9 @@ class CellOperator {
   /// colour costs 1/8 of apply_add. Other entries of y are not touched.
   virtual void apply_add_colour(const CellPositions& position, int k, const double* x,
                                 double* y) const = 0;
+  /// The same on single-precision vectors (Gauss-Seidel in the float V-cycle).
+  virtual void apply_add_colour(const CellPositions& position, int k, const float* x,
+                                float* y) const = 0;
   /// diag += the 3x3 diagonal blocks of A (9 per local copy, row-major), local parts.
   virtual void add_diagonal_blocks(double* diag) const = 0;
   /// The 24x24 matrix A_e of local cell e (row-major, corner-major: DOF 3q + d).

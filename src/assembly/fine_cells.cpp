@@ -74,6 +74,13 @@ void FineCells::apply_add_colour(const CellPositions& position, int k, const dou
                     backend::CellColourRows<FineCellOps>{{data()}, corners(), p, k, x, y});
 }
 
+void FineCells::apply_add_colour(const CellPositions& position, int k, const float* x,
+                                 float* y) const {
+  const int* p = position.empty() ? nullptr : position[0].data();
+  backend::for_each(std::int64_t(num_cells()),
+                    backend::CellColourRows<FineCellOps, float>{{data()}, corners(), p, k, x, y});
+}
+
 void FineCells::add_diagonal_blocks(double* diag) const {
   backend::for_each(std::int64_t(num_cells()),
                     backend::CellDiagonal<FineCellOps>{{data()}, corners(), diag});

@@ -38,6 +38,8 @@ class FineCells final : public CellOperator {
   void apply_add(const float* x, float* y) const override;
   void apply_add_colour(const CellPositions& position, int k, const double* x,
                         double* y) const override;
+  void apply_add_colour(const CellPositions& position, int k, const float* x,
+                        float* y) const override;
   void add_diagonal_blocks(double* diag) const override;
   void cell_matrix(std::size_t e, double* A) const override;
 

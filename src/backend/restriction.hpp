@@ -34,22 +34,24 @@ struct CellApplyAdd {
   }
 };
 
-/// y at each cell's corner of parity colour k += that corner's rows of A_e times x_e.
-template <class Cell>
+/// y at each cell's corner of parity colour k += that corner's rows of A_e times x_e. V: the
+/// vectors' type (as CellApplyAdd's: the 24 values gathered into double, the 3 rows added
+/// rounded to V).
+template <class Cell, class V = double>
 struct CellColourRows {
   Cell cell;
   const std::int32_t* corners;  // 8 per cell
   const int* position;          // 3 per cell: lattice or level position
   int colour;
-  const double* x;
-  double* y;
+  const V* x;
+  V* y;
   HEXCUT_HD void operator()(std::int32_t e) const {
     const std::int32_t* c = corners + 8 * std::int64_t(e);
     const int q = element::corner_of_colour(position + 3 * std::int64_t(e), colour);
     double xe[24], y3[3];
     element::gather_cell(x, c, xe);
     cell.row_block(e, c, q, xe, y3);
-    for (int i = 0; i < 3; ++i) y[3 * c[q] + i] += y3[i];
+    for (int i = 0; i < 3; ++i) y[3 * std::int64_t(c[q]) + i] += V(y3[i]);
   }
 };
 

@@ -48,7 +48,6 @@ const char* loop_cycle_refusal(const Options& o, int ranks) {
   // The host executor exchanges ghosts through MPI; the device executor has no halo yet.
   return ranks > 1 && o.backend == Backend::cuda       ? "more than one MPI rank"
          : o.first_level > 0                           ? "composite elements"
-         : o.smoother != Smoother::chebyshev           ? "-gmg_smoother gs"
          : o.interpolation != Interpolation::trilinear ? "-gmg_interpolation energy or smoothed"
          : o.schwarz_from >= 0                         ? "-gmg_schwarz_from"
                                                        : nullptr;
@@ -558,9 +557,9 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
   for (int l = 0; l < L; ++l) {
     auto& a = (*out)[l];
     const auto& D = levels_[l].layout();
-    const auto owner = [&D](PetscInt g) {
-      return int(std::upper_bound(D.owned_begin.begin(), D.owned_begin.end(), g) -
-                 D.owned_begin.begin()) - 1;
+    const auto owner = [&D](PetscInt g) {  // the last rank whose range begins at or before g
+      const auto after = std::upper_bound(D.owned_begin.begin(), D.owned_begin.end(), g);
+      return int(after - D.owned_begin.begin() - 1);
     };
     for (std::int32_t i = D.num_owned; i < D.num_local(); ++i) {
       const PetscInt g = D.global_block[std::size_t(D.copies[std::size_t(i)])];
@@ -579,8 +578,19 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
     a.view.num_local = D.num_local() + std::int64_t(extra[l].size());
     a.view.diag_inv = data_[l]->diag_inv.empty() ? nullptr : data_[l]->diag_inv.data();
     a.view.lambda_max = data_[l]->lambda_max;
-    a.view.presmooth = degree(l, opt_.presmooth);
-    a.view.postsmooth = degree(l, opt_.postsmooth);
+    // Multigrid::smooth: Chebyshev's degrees grow on irregular levels, Gauss-Seidel's sweeps
+    // do not.
+    const bool gs = opt_.smoother == Smoother::gauss_seidel;
+    a.view.presmooth = gs ? opt_.presmooth : degree(l, opt_.presmooth);
+    a.view.postsmooth = gs ? opt_.postsmooth : degree(l, opt_.postsmooth);
+    a.view.gauss_seidel = gs;
+    a.view.omega = opt_.omega;
+    for (int k = 0; k < 8; ++k) {
+      const auto& list = data_[l]->colour_list[k];
+      a.colour_copy.insert(a.colour_copy.end(), list.begin(), list.end());
+      a.view.colour_begin[k + 1] = std::int64_t(a.colour_copy.size());
+    }
+    a.view.colour_copy = a.colour_copy.data();
     if (l + 1 < L) {
       // The weights the cycle's interpolation holds: the scalar AIJ inside the MAIJ, whose rows
       // are this rank's owned fine copies and whose columns are coarse global blocks (on more
@@ -636,7 +646,8 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
             a.prolong_weight[j] = w[k];
           }
         PetscCall(MatSeqAIJRestoreArrayRead(parts[part], &w));
-        PetscCall(MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+        PetscCall(
+            MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
       }
       // The restriction: the same weights gathered per coarse local copy (ghosts included).
       const auto num_coarse = std::size_t(C.num_local()) + extra[l + 1].size();

@@ -47,7 +47,8 @@ class Multigrid;
 struct Options;
 
 /// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
-/// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi, trilinear interpolation,
+/// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi or coloured block
+/// Gauss-Seidel, trilinear interpolation,
 /// fine hexahedra (no composite elements), on any number of ranks on the host and on one rank
 /// with Backend::cuda.
 const char* loop_cycle_refusal(const Options& o, int ranks);
@@ -271,7 +272,7 @@ class Multigrid {
   /// layout's copy order (owned copies, then the layout's ghosts, then the coarse copies a
   /// transfer reaches beyond those; LoopLevelArrays::ghost_rank/ghost_index connect the ghosts
   /// to their owners). Refused (PETSC_ERR_SUP, with the reason) where that cycle is not the one
-  /// cycle() runs: composite elements, Gauss-Seidel, Schwarz patches, energy-minimizing or
+  /// cycle() runs: composite elements, Schwarz patches, energy-minimizing or
   /// smoothed interpolation, an assembled level (and -gmg_backend cuda on more than one rank).
   PetscErrorCode loop_levels(std::vector<LoopLevelArrays>* out) const;
   /// Options::cycle_gamma: 1 V-cycle, 2 W-cycle.

@@ -57,6 +57,9 @@ class HostLoopCycleOf : public CycleBackend {
     backend::for_each(n, k);
   }
   void apply_add(int l, const S* x, S* y) { mg_.cell_operator(l)->apply_add(x, y); }
+  void apply_add_colour(int l, int k, const S* x, S* y) {
+    mg_.cell_operator(l)->apply_add_colour(mg_.cell_positions(l), k, x, y);
+  }
   void solve_coarsest(const S* b, S* x);
   void exchange(int l, S* x);
   void accumulate(int l, S* y);

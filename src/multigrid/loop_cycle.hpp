@@ -1,6 +1,7 @@
 // The multigrid cycle on the loop layer (issue 13; doc/theory.md, "The CUDA backend: the
 // cycle on the loop layer"): the V- or W-cycle of Multigrid::cycle (Chebyshev on point-block
-// Jacobi, trilinear transfers, the coarsest level solved by the caller) written once over an
+// Jacobi or coloured block Gauss-Seidel, trilinear transfers, the coarsest level solved by the
+// caller) written once over an
 // executor, so that the host backend and the CUDA backend run the same algorithm with the same
 // pointwise bodies. Everything here is plain data and HEXCUT_HD functors on 3 values per vertex
 // copy (structure of arrays), free of PETSc, so nvcc compiles it too.
@@ -12,6 +13,8 @@
 //   Scalar *b(l), *x(l), *r(l), *dir(l);            work vectors, 3 per copy
 //   void for_each(std::int64_t n, const K& k);      k(i) for i < n (any order, no races)
 //   void apply_add(int l, const Scalar* x, Scalar* y);  y += A_l x, the level's cells
+//   void apply_add_colour(int l, int k, const Scalar* x, Scalar* y);  the same for the rows
+//        of the copies of parity colour k only (Gauss-Seidel; other entries untouched)
 //   void solve_coarsest(const Scalar* b, Scalar* x);    x = A_c^-1 b on the last level
 //   void exchange(int l, Scalar* x);     the ghost entries of x get their owners' values
 //   void accumulate(int l, Scalar* y);   the ghost entries of y are added into their owners
@@ -42,7 +45,15 @@ struct LoopLevel {
   const double* diag_inv = nullptr;   // 9 per copy: inverted 3x3 diagonal blocks (row-major)
   const double* mask = nullptr;       // 3 per copy: 1 free, 0 prescribed or dead (identity row)
   double lambda_max = 0;              // of D^-1 A (power iteration, Multigrid::estimate_lambda_max)
-  int presmooth = 0, postsmooth = 0;  // Chebyshev degrees
+  int presmooth = 0, postsmooth = 0;  // Chebyshev degrees, or Gauss-Seidel sweeps
+  // Gauss-Seidel (-gmg_smoother gs): sweeps over the 8 parity colours of the owned copies
+  // (colour k: colour_copy[colour_begin[k] .. colour_begin[k+1])), forward before the coarse
+  // correction and backward after it, damped by omega. colour_begin is host memory (launch
+  // sizes); colour_copy the executor's.
+  bool gauss_seidel = false;
+  double omega = 1.0;
+  std::int64_t colour_begin[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  const std::int32_t* colour_copy = nullptr;
   // Transfer from level l+1 (null on the coarsest level).
   const std::int32_t* prolong_coarse = nullptr;   // 8 per copy of this level
   const double* prolong_weight = nullptr;         // 8 per copy of this level
@@ -67,6 +78,7 @@ struct LoopLevelArrays {
   std::vector<int> ghost_rank;
   std::vector<std::int32_t> ghost_index;
   std::vector<double> mask;
+  std::vector<std::int32_t> colour_copy;
   std::vector<std::int32_t> prolong_coarse;
   std::vector<double> prolong_weight;
   std::vector<std::int32_t> restrict_offset, restrict_fine;
@@ -79,6 +91,44 @@ struct Zero {
   V* y;
   HEXCUT_HD void operator()(std::int32_t i) const {
     for (int c = 0; c < 3; ++c) y[3 * std::int64_t(i) + c] = V(0);
+  }
+};
+
+/// y = 0 at the listed copies.
+template <class V>
+struct ZeroAt {
+  const std::int32_t* copy;
+  V* y;
+  HEXCUT_HD void operator()(std::int32_t i) const {
+    for (int c = 0; c < 3; ++c) y[3 * std::int64_t(copy[i]) + c] = V(0);
+  }
+};
+
+/// x_i += omega D_i^-1 (b_i - (A x)_i) at the listed copies (one colour: no copy's row reads
+/// another listed copy), r holding the cells' (A x)_i; where the mask is 0 the row is the
+/// identity's (Multigrid::gauss_seidel).
+template <class V>
+struct GaussSeidelUpdate {
+  const std::int32_t* copy;
+  const V* b;
+  const V* r;
+  const double* mask;
+  const double* diag_inv;
+  double omega;
+  V* x;
+  HEXCUT_HD void operator()(std::int32_t j) const {
+    const auto i = std::int64_t(copy[j]);
+    double res[3];
+    for (int c = 0; c < 3; ++c) {
+      const auto k = 3 * i + c;
+      res[c] = double(b[k]) - double(r[k]) - (mask[k] == 0.0 ? double(x[k]) : 0.0);
+    }
+    const double* D = diag_inv + 9 * i;
+    for (int c = 0; c < 3; ++c) {
+      V& xc = x[3 * i + c];
+      xc = V(double(xc) +
+             omega * (D[3 * c] * res[0] + D[3 * c + 1] * res[1] + D[3 * c + 2] * res[2]));
+    }
   }
 };
 
@@ -204,6 +254,38 @@ void chebyshev(Exec& ex, int l, const V* b, V* x, int degree) {
   }
 }
 
+/// One sweep of coloured block Gauss-Seidel over the 8 colours (reverse: 7 down to 0): per
+/// colour, the cells' rows of its copies from the current x (ghosts refreshed, the ghosts'
+/// partial rows summed into their owners), then the update of its copies.
+template <class Exec, class V = typename Exec::Scalar>
+void gauss_seidel(Exec& ex, int l, const V* b, V* x, bool reverse) {
+  const LoopLevel& L = ex.level(l);
+  V* r = ex.r(l);
+  for (int kk = 0; kk < 8; ++kk) {
+    const int k = reverse ? 7 - kk : kk;
+    const std::int32_t* copies = L.colour_copy + L.colour_begin[k];
+    const std::int64_t n = L.colour_begin[k + 1] - L.colour_begin[k];
+    ex.for_each(n, ZeroAt<V>{copies, r});
+    ex.for_each(L.num_local - L.num_copies, Zero<V>{r + 3 * L.num_copies});
+    ex.exchange(l, x);
+    ex.apply_add_colour(l, k, x, r);
+    ex.accumulate(l, r);
+    ex.for_each(n, GaussSeidelUpdate<V>{copies, b, r, L.mask, L.diag_inv, L.omega, x});
+  }
+}
+
+/// The level's smoother from x: Chebyshev of degree `steps`, or `steps` Gauss-Seidel sweeps
+/// (backward ones after the coarse correction: the cycle stays symmetric).
+template <class Exec, class V = typename Exec::Scalar>
+void smooth(Exec& ex, int l, const V* b, V* x, int steps, bool after) {
+  if (steps <= 0) return;
+  if (!ex.level(l).gauss_seidel) {
+    chebyshev(ex, l, b, x, steps);
+    return;
+  }
+  for (int s = 0; s < steps; ++s) gauss_seidel(ex, l, b, x, after);
+}
+
 /// One cycle on level l for ex.b(l) into ex.x(l) (from zero when zero_guess).
 template <class Exec>
 void cycle_level(Exec& ex, int l, bool zero_guess) {
@@ -216,7 +298,7 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   const LoopLevel& L = ex.level(l);
   V *b = ex.b(l), *x = ex.x(l), *r = ex.r(l);
   if (zero_guess) ex.for_each(L.num_copies, Zero<V>{x});
-  if (L.presmooth > 0) chebyshev(ex, l, b, x, L.presmooth);
+  smooth(ex, l, b, x, L.presmooth, false);
   residual(ex, l, b, x, r, true);
   // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
   // included, and the ghosts' partial sums go to their owners.
@@ -228,7 +310,7 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   ex.exchange(l + 1, ex.x(l + 1));
   ex.for_each(L.num_copies,
               ProlongAdd<V>{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
-  if (L.postsmooth > 0) chebyshev(ex, l, b, x, L.postsmooth);
+  smooth(ex, l, b, x, L.postsmooth, true);
 }
 
 }  // namespace loop

@@ -217,8 +217,8 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsEList("-gmg_precision",
                               "Precision of the cycle: double, or single (the coarse levels' "
                               "Galerkin blocks in float, products in double; with -gmg_backend "
-                              "host_loop also every level's vectors in float; the outer CG in "
-                              "double)",
+                              "host_loop or cuda also every level's vectors in float; the outer "
+                              "CG in double)",
                               "", precisions, 2, precisions[choice], &choice, &set));
   if (set) o.precision = choice == 1 ? Precision::single : Precision::double_;
   PetscCheck(o.interpolation != Interpolation::smoothed || o.smoother == Smoother::chebyshev,
@@ -230,8 +230,8 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsEList(
       "-gmg_backend",
       "Where the cycle runs: host (PETSc vectors, every option, any ranks), host_loop (the "
-      "CUDA backend's loop-layer cycle on the host), cuda (device 0; one rank, Chebyshev, "
-      "trilinear)",
+      "CUDA backend's loop-layer cycle on the host, any ranks), cuda (device 0; one rank); "
+      "host_loop and cuda: Chebyshev or Gauss-Seidel, trilinear, no composite elements",
       "", backends, 3, backends[choice], &choice, &set));
   if (set) o.backend = Backend(choice);
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;

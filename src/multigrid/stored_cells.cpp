@@ -272,17 +272,28 @@ void StoredCells::apply_add(const float* x, float* y) const {
   apply_add_on(x, y);
 }
 
-void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
-                                   double* y) const {
+template <class V>
+void StoredCells::apply_add_colour_on(const assembly::CellPositions& position, int k, const V* x,
+                                      V* y) const {
   assert(blocks_ && "a single-precision level is used before its first galerkin()");
   const int* p = position.empty() ? nullptr : position[0].data();
   const auto n = std::int64_t(num_cells());
   if (const double* d = packed_double())
     backend::for_each(
-        n, backend::CellColourRows<StoredCellOps>{{d, block_of()}, corners(), p, k, x, y});
+        n, backend::CellColourRows<StoredCellOps, V>{{d, block_of()}, corners(), p, k, x, y});
   else
-    backend::for_each(n, backend::CellColourRows<StoredCellOpsSingle>{
+    backend::for_each(n, backend::CellColourRows<StoredCellOpsSingle, V>{
                              {packed_single(), block_of()}, corners(), p, k, x, y});
+}
+
+void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
+                                   double* y) const {
+  apply_add_colour_on(position, k, x, y);
+}
+
+void StoredCells::apply_add_colour(const assembly::CellPositions& position, int k, const float* x,
+                                   float* y) const {
+  apply_add_colour_on(position, k, x, y);
 }
 
 void StoredCells::add_diagonal_blocks(double* diag) const {

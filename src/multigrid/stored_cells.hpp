@@ -139,6 +139,8 @@ class StoredCells final : public assembly::CellOperator {
   void apply_add(const float* x, float* y) const override;
   void apply_add_colour(const assembly::CellPositions& position, int k, const double* x,
                         double* y) const override;
+  void apply_add_colour(const assembly::CellPositions& position, int k, const float* x,
+                        float* y) const override;
   void add_diagonal_blocks(double* diag) const override;
   void cell_matrix(std::size_t e, double* A) const override;
 
@@ -146,6 +148,9 @@ class StoredCells final : public assembly::CellOperator {
   /// Both apply_add's: V the vectors' type.
   template <class V>
   void apply_add_on(const V* x, V* y) const;
+  /// Both apply_add_colour's.
+  template <class V>
+  void apply_add_colour_on(const assembly::CellPositions& position, int k, const V* x, V* y) const;
   Precision precision_;
   /// The double blocks (set_block, rotate_block: the composite level, always double).
   double* doubles() {

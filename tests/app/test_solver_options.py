@@ -109,7 +109,8 @@ def main():
         check(rc == 0 and its_host is not None and iterations(out) == its_host,
               f"-gmg_backend host_loop on {ranks} rank(s): the host cycle's {its_host} iterations "
               f"(rc {rc}, {iterations(out)}) {err[-300:]}")
-    for args, ranks, what in (([path, "-gmg_smoother", "gs"], 1, "-gmg_smoother gs"),
+    for args, ranks, what in (([path, "-gmg_interpolation", "smoothed"], 1,
+                               "-gmg_interpolation energy or smoothed"),
                               ([comp], 1, "composite elements")):
         rc, out, err = run([*args, "--check", "-gmg_backend", "host_loop"], ranks=ranks)
         check(rc == 2 and f"-gmg_backend host_loop does not support {what}" in err,

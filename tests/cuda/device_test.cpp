@@ -136,7 +136,8 @@ TEST(Device, CycleEqualsTheHostLoopCycle) {
   // The whole cycle on the device (cuda::MultigridDeviceCycle: Chebyshev, residuals,
   // transfers on the device, the coarsest level on the host) against the same cycle on the
   // host backend (multigrid::host_loop_cycle in the Multigrid's precision, itself equal to
-  // Multigrid::cycle), on the corotated holed two-material block: V and W with double vectors
+  // Multigrid::cycle), on the corotated holed two-material block: V and W, Chebyshev and
+  // coloured Gauss-Seidel (cell colour by cell colour on the device), with double vectors
   // and double or float coarse blocks, 1e-12 relative; with -gmg_precision single both cycles'
   // vectors are float, and they agree to 1e-5 relative (float rounds each sum at a vertex copy,
   // and the device forms those sums in another order; each float cycle is ~1e-7 from double's,
@@ -149,7 +150,9 @@ TEST(Device, CycleEqualsTheHostLoopCycle) {
   };
   for (const Case& c : {Case{"-gmg_levels 3", 1e-12}, Case{"-gmg_levels 3 -gmg_cycle w", 1e-12},
                         Case{"-gmg_levels 3 -gmg_precision single", 1e-5},
-                        Case{"-gmg_levels 3 -gmg_cycle w -gmg_precision single", 1e-5}}) {
+                        Case{"-gmg_levels 3 -gmg_cycle w -gmg_precision single", 1e-5},
+                        Case{"-gmg_levels 3 -gmg_smoother gs", 1e-12},
+                        Case{"-gmg_levels 3 -gmg_smoother gs -gmg_precision single", 1e-5}}) {
     Job job(PETSC_COMM_WORLD, kBlock, 8, c.options);
     auto& mg = *job.sim->multigrid();
     HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
@@ -165,9 +168,10 @@ TEST(Device, CycleEqualsTheHostLoopCycle) {
     HEXCUT_CALL(device->apply(b.data(), xd.data()));
     const auto d = max_difference(xh.data(), xd.data(), n);
     const double from_double = max_difference(xhd.data(), xd.data(), n).relative();
-    std::printf("cycle, %s: max |x_device - x_host| / max |x_host| = %.1e (from the host's "
-                "double-vector cycle: %.1e)\n",
-                c.options, d.relative(), from_double);
+    std::printf(
+        "cycle, %s: max |x_device - x_host| / max |x_host| = %.1e (from the host's "
+        "double-vector cycle: %.1e)\n",
+        c.options, d.relative(), from_double);
     EXPECT_GT(d.magnitude, 0.0);
     EXPECT_LT(d.relative(), c.tolerance) << c.options;
     if (mg.precision() == multigrid::Precision::single)
@@ -195,8 +199,8 @@ TEST(Device, SolveWithTheCudaBackendEqualsTheHost) {
     }
     ASSERT_EQ(u[0].size(), u[1].size());
     const double d = max_difference(u[0].data(), u[1].data(), u[0].size()).relative();
-    std::printf("solve%s: %d iterations (host) / %d (cuda), max |du| / max |u| = %.1e\n",
-                precision, int(its[0]), int(its[1]), d);
+    std::printf("solve%s: %d iterations (host) / %d (cuda), max |du| / max |u| = %.1e\n", precision,
+                int(its[0]), int(its[1]), d);
     if (*precision)
       EXPECT_LE(std::abs(int(its[0]) - int(its[1])), 1) << precision;
     else

@@ -1121,7 +1121,8 @@ std::vector<double> backend_cycle(multigrid::CycleBackend& cycle, Vec b) {
 TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
   // The cycle written once over an executor (multigrid/loop_cycle.hpp: what the CUDA backend
   // runs) on the host backend equals Multigrid::cycle, the PETSc-vector cycle, to round-off
-  // (the transfers sum in another order): V and W, double and float coarse blocks, the holed
+  // (the transfers sum in another order): V and W, Chebyshev and Gauss-Seidel, double and
+  // float coarse blocks, the holed
   // two-material corotated block and the cut 3-cell blade grid (coarse cells of several
   // pieces, dead coarse DOFs). On 2 ranks (multigrid_mpi_test) the same, through the
   // executor's ghost exchange: each rank compares its owned values.
@@ -1139,6 +1140,10 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
       // Super-blocks of one cell: on 2 ranks coarse cells have children on other ranks, so a
       // transfer reaches coarse copies beyond the coarse cells' ghosts.
       {kBlock, "-gmg_levels 3 -gmg_precision single", false, 1},
+      // Coloured block Gauss-Seidel (forward before, backward after the coarse correction).
+      {kBlock, "-gmg_levels 3 -gmg_smoother gs", false, 8},
+      {kBlock, "-gmg_levels 3 -gmg_smoother gs -gmg_presmooth 2 -gmg_omega 0.9", false, 1},
+      {blade_grid_cube(true, 20.0), "-gmg_levels 4 -gmg_cycle w -gmg_smoother gs", true, 8},
   };
   for (const auto& c : cases) {
     Job job(PETSC_COMM_WORLD, c.yaml, c.superblock, c.options);
@@ -1203,7 +1208,7 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     VecDestroy(&x);
   }
   // What it does not run yet is named.
-  Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 3 -gmg_smoother gs");
+  Job job(PETSC_COMM_WORLD, kBlock, 8, "-gmg_levels 3 -gmg_schwarz_from 1");
   auto& mg = *job.sim->multigrid();
   HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
   std::unique_ptr<multigrid::HostLoopCycle> loop;
@@ -1216,22 +1221,24 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
 TEST(Multigrid, HostLoopBackendSolvesLikeTheHostCycle) {
   // -gmg_backend host_loop (the CUDA backend's cycle on the host) through whole static solves,
   // chosen like any option: the same CG iterations and displacements as the default backend,
-  // on the uncut cube and the cut blade grid (W-cycle, the default after cuts), on 1 and 2
-  // ranks.
-  for (bool cut : {false, true}) {
-    auto host = solve_static(blade_grid_cube(cut, 20.0), "-gmg_levels 3", cut);
-    auto loop =
-        solve_static(blade_grid_cube(cut, 20.0), "-gmg_levels 3 -gmg_backend host_loop", cut);
-    ASSERT_EQ(host.u.size(), loop.u.size());
-    const auto d = max_difference(host.u.data(), loop.u.data(), host.u.size());
-    std::printf("%s: %d / %d iterations, max |du| / max |u| = %.1e\n", cut ? "cut" : "uncut",
-                int(host.iterations), int(loop.iterations), d.relative());
-    EXPECT_EQ(host.iterations, loop.iterations);
-    EXPECT_GT(d.magnitude, 0.0);
-    EXPECT_LT(d.relative(), 1e-10);
-    MatDestroy(&host.coarsest);
-    MatDestroy(&loop.coarsest);
-  }
+  // on the uncut cube and the cut blade grid (W-cycle, the default after cuts), with Chebyshev
+  // and with Gauss-Seidel, on 1 and 2 ranks.
+  for (const std::string smoother : {"", " -gmg_smoother gs"})
+    for (bool cut : {false, true}) {
+      auto host =
+          solve_static(blade_grid_cube(cut, 20.0), ("-gmg_levels 3" + smoother).c_str(), cut);
+      auto loop = solve_static(blade_grid_cube(cut, 20.0),
+                               ("-gmg_levels 3 -gmg_backend host_loop" + smoother).c_str(), cut);
+      ASSERT_EQ(host.u.size(), loop.u.size());
+      const auto d = max_difference(host.u.data(), loop.u.data(), host.u.size());
+      std::printf("%s%s: %d / %d iterations, max |du| / max |u| = %.1e\n", cut ? "cut" : "uncut",
+                  smoother.c_str(), int(host.iterations), int(loop.iterations), d.relative());
+      EXPECT_EQ(host.iterations, loop.iterations);
+      EXPECT_GT(d.magnitude, 0.0);
+      EXPECT_LT(d.relative(), 1e-10);
+      MatDestroy(&host.coarsest);
+      MatDestroy(&loop.coarsest);
+    }
 }
 
 TEST(Multigrid, SmoothedInterpolationKeepsCutBladeGridsWithinOneAndAHalfTimesTheUncutCube) {
