@@ -110,6 +110,9 @@ class DeviceFineCells {
     d_.reference = upload(&reference_, h.reference, 1);
     d_.mask = upload(&mask_, h.mask, 3 * std::size_t(cells.num_copies));
     d_.cell_masked = upload(&cell_masked_, h.mask ? h.cell_masked : nullptr, n);
+    d_.kind_stiffness_single =
+        upload(&kind_single_, h.kind_stiffness_single, 576 * std::size_t(t.num_kinds));
+    d_.reference_single = upload(&reference_single_, h.reference_single, 3 * 576);
     upload(&order_, cells.colour_cell, std::size_t(cells.colour_offset[cells.num_colours]));
   }
   /// y += A x, x and y device arrays of V (double or float), launched colour by colour (no
@@ -117,6 +120,13 @@ class DeviceFineCells {
   template <class V>
   void apply_add(const CellArrays& cells, const V* x, V* y) const {
     if (cells.num_cells == 0) return;
+    if constexpr (std::is_same_v<V, float>) {
+      if (d_.reference_single) {  // float arithmetic, as the host's FineCells on float vectors
+        const backend::CellApplyAdd<assembly::FineCellOpsSingle, float> k{{d_}, d_.corners, x, y};
+        launch_colours(k, order_->get(), cells);
+        return;
+      }
+    }
     const backend::CellApplyAdd<assembly::FineCellOps, V> k{{d_}, d_.corners, x, y};
     launch_colours(k, order_->get(), cells);
   }
@@ -137,6 +147,7 @@ class DeviceFineCells {
       rotation_, mask_;
   std::unique_ptr<DeviceArray<element::ReferenceMatrices>> reference_;
   std::unique_ptr<DeviceArray<char>> cell_masked_;
+  std::unique_ptr<DeviceArray<float>> kind_single_, reference_single_;
 };
 
 /// A level's packed Galerkin blocks on the device (double or float), its cells and colours.

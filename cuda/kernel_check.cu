@@ -68,6 +68,8 @@ template __global__ void check_functor<be::CellDiagonal<mg::StoredCellOpsSingle>
 // The float vectors of the single-precision V-cycle (multigrid/loop_cycle.hpp).
 template __global__ void check_functor<be::CellApplyAdd<as::FineCellOps, float>>(
     be::CellApplyAdd<as::FineCellOps, float>, int);
+template __global__ void check_functor<be::CellApplyAdd<as::FineCellOpsSingle, float>>(
+    be::CellApplyAdd<as::FineCellOpsSingle, float>, int);
 template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOps, float>>(
     be::CellApplyAdd<mg::StoredCellOps, float>, int);
 template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsSingle, float>>(
@@ -343,6 +345,19 @@ __global__ void check_fine_cell_view(as::FineCellData d, double* out) {
   const int e = thread_index();
   const auto c = as::fine_cell(d, e);
   out[e] = as::cell_is_masked(d, e) ? c.mass : c.k_lambda;
+}
+
+__global__ void check_fine_cell_single_view(as::FineCellData d, double* out) {
+  const int e = thread_index();
+  const auto c = as::fine_cell_single(d, e);
+  out[e] = c.K_mu ? c.k_lambda : c.mass;
+}
+
+__global__ void check_fine_cell_apply_add_single(const float* K, const double* R, double w,
+                                                 const float* x, float* y) {
+  const int e = thread_index();
+  const el::FineCellOf<float> c{K, R ? R + 9 * e : nullptr, w, 0.0, nullptr};
+  el::fine_cell_apply_add(c, x + 24 * e, y + 24 * e);
 }
 
 // --- element/fine_cell.hpp: the stiffness of a cell without a kind, not formed ---

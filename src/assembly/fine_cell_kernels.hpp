@@ -33,6 +33,9 @@ struct FineCellData {
   bool lumped_mass = true;
   const double* mask = nullptr;                  // 3 per local copy: 1 free, 0 masked; null: none
   const char* cell_masked = nullptr;             // per cell: has a masked DOF
+  // Float copies for FineCellOpsSingle (null where not made: FineCells without cache).
+  const float* kind_stiffness_single = nullptr;  // 576 per kind
+  const float* reference_single = nullptr;       // 3 x 576: K_lambda, K_mu, consistent mass
 };
 
 /// The kernel view of cell e: its stiffness (the kind's, the cell's own formed once, or
@@ -54,6 +57,27 @@ HEXCUT_HD inline element::FineCell fine_cell(const FineCellData& d, std::int32_t
   f.w_stiffness = d.w_stiffness;
   f.mass = d.w_mass * d.rho[e] * d.h * d.h * d.h;
   f.consistent_mass = d.lumped_mass ? nullptr : d.reference->mass;
+  return f;
+}
+
+/// The same view in float (FineCellOpsSingle): the kind's stiffness in float, or, for a cell
+/// without a kind, h (lambda K_lambda + mu K_mu) from the float reference matrices (the
+/// operator a cell's own formed stiffness is, element::cell_stiffness).
+HEXCUT_HD inline element::FineCellOf<float> fine_cell_single(const FineCellData& d,
+                                                             std::int32_t e) {
+  element::FineCellOf<float> f;
+  if (d.kind[e] >= 0) {
+    f.K = d.kind_stiffness_single + 576 * std::int64_t(d.kind[e]);
+  } else {
+    f.K = d.reference_single;
+    f.K_mu = d.reference_single + 576;
+    f.k_lambda = d.h * d.lambda[e];
+    f.k_mu = d.h * d.mu[e];
+  }
+  f.R = d.rotation ? d.rotation + 9 * std::int64_t(e) : nullptr;
+  f.w_stiffness = d.w_stiffness;
+  f.mass = d.w_mass * d.rho[e] * d.h * d.h * d.h;
+  f.consistent_mass = d.lumped_mass ? nullptr : d.reference_single + 2 * 576;
   return f;
 }
 
@@ -97,6 +121,29 @@ struct FineCellOps {
     const auto v = corners[q];
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) D[3 * i + j] *= d.mask[3 * v + i] * d.mask[3 * v + j];
+  }
+};
+
+/// FineCellOps' product in float arithmetic (backend::CellApplyAdd gathers the 24 values into
+/// float): the fine level of the single-precision V-cycle (-gmg_precision single with
+/// host_loop or cuda), where float doubles the lanes of the 24 x 24 product; needs the float
+/// copies of FineCellData. Only the product: the Gauss-Seidel rows and the diagonal blocks
+/// stay FineCellOps'.
+struct FineCellOpsSingle {
+  using Arith = float;
+  FineCellData d;
+  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t* corners, float* xe,
+                           float* ye) const {
+    const auto cell = fine_cell_single(d, e);
+    if (!cell_is_masked(d, e)) {
+      element::fine_cell_apply_add(cell, xe, ye);
+      return;
+    }
+    for (int q = 0; q < 8; ++q)
+      for (int k = 0; k < 3; ++k) xe[3 * q + k] *= float(d.mask[3 * corners[q] + k]);
+    element::fine_cell_apply_add(cell, xe, ye);
+    for (int q = 0; q < 8; ++q)
+      for (int k = 0; k < 3; ++k) ye[3 * q + k] *= float(d.mask[3 * corners[q] + k]);
   }
 };
 

@@ -21,6 +21,13 @@ FineCells::FineCells(const topology::DofLayout& layout, const CellData& cells,
     if (own_[e] >= 0)
       element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e],
                               cells.mu[e], &own_stiffness_[576 * std::size_t(own_[e])]);
+  // The float copies (a few KB): per kind, and the reference matrices for the cells without
+  // a kind (float arithmetic forms their stiffness from these, not from own_stiffness_).
+  for (const auto& K : cells.kind_stiffness)
+    kind_single_.insert(kind_single_.end(), K.begin(), K.end());
+  const auto& ref = element::reference_matrices();
+  for (const double* M : {ref.k_lambda, ref.k_mu, ref.mass})
+    reference_single_.insert(reference_single_.end(), M, M + 576);
 }
 
 void FineCells::set_mask(std::vector<double> mask_local) {
@@ -54,6 +61,8 @@ FineCellData FineCells::data() const {
   d.lumped_mass = w_.lumped_mass;
   d.mask = mask_.empty() ? nullptr : mask_.data();
   d.cell_masked = cell_masked_.empty() ? nullptr : cell_masked_.data();
+  d.kind_stiffness_single = kind_single_.empty() ? nullptr : kind_single_.data();
+  d.reference_single = reference_single_.empty() ? nullptr : reference_single_.data();
   return d;
 }
 
@@ -63,8 +72,13 @@ void FineCells::apply_add(const double* x, double* y) const {
 }
 
 void FineCells::apply_add(const float* x, float* y) const {
-  backend::for_each(std::int64_t(num_cells()),
-                    backend::CellApplyAdd<FineCellOps, float>{{data()}, corners(), x, y});
+  const auto d = data();
+  if (d.reference_single)
+    backend::for_each(std::int64_t(num_cells()),
+                      backend::CellApplyAdd<FineCellOpsSingle, float>{{d}, corners(), x, y});
+  else
+    backend::for_each(std::int64_t(num_cells()),
+                      backend::CellApplyAdd<FineCellOps, float>{{d}, corners(), x, y});
 }
 
 void FineCells::apply_add_colour(const CellPositions& position, int k, const double* x,

@@ -21,7 +21,9 @@ class FineCells final : public CellOperator {
   /// (per-cell E) is applied from the reference matrices at each visit, for operators
   /// applied a few times; cache = true: formed once here (4.6 KB per such cell), for
   /// operators applied
-  /// many times (the multigrid's fine level). The loops are the loop layer's
+  /// many times (the multigrid's fine level), which also keeps float copies of the kinds'
+  /// stiffness and the reference matrices for apply_add on float vectors (float arithmetic;
+  /// without cache that apply_add computes in double). The loops are the loop layer's
   /// (backend/loop.hpp) over the kernels of fine_cell_kernels.hpp.
   FineCells(const topology::DofLayout& layout, const CellData& cells, const OperatorWeights& w,
             bool cache = false);
@@ -56,6 +58,9 @@ class FineCells final : public CellOperator {
   std::vector<double> own_stiffness_;       // cache: 576 per cell without a kind
   std::vector<double> mask_;                // per local DOF, or empty
   std::vector<char> cell_masked_;           // per cell: has a masked DOF
+  // cache: float copies of the kinds' stiffness and of the reference matrices (K_lambda,
+  // K_mu, mass), what apply_add on float vectors multiplies by (FineCellOpsSingle).
+  std::vector<float> kind_single_, reference_single_;
 };
 
 }  // namespace hexcut::assembly

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "element/fine_cell.hpp"
 #include "element/host_device.hpp"
@@ -16,8 +17,20 @@
 
 namespace hexcut::backend {
 
+/// The type a Cell's apply_add works in: Cell::Arith where it declares one (float for
+/// assembly::FineCellOpsSingle), double otherwise.
+template <class Cell, class = void>
+struct CellArith {
+  using type = double;
+};
+template <class Cell>
+struct CellArith<Cell, std::void_t<typename Cell::Arith>> {
+  using type = typename Cell::Arith;
+};
+
 /// y += A x: each cell's contribution at its corners. V: the vectors' type (double, or float
-/// for the loop-layer cycle in single precision); the cell's arithmetic is the Cell's.
+/// for the loop-layer cycle in single precision); the cell's 24 values are gathered into and
+/// scattered from its arithmetic's type (CellArith).
 template <class Cell, class V = double>
 struct CellApplyAdd {
   Cell cell;
@@ -25,10 +38,11 @@ struct CellApplyAdd {
   const V* x;
   V* y;
   HEXCUT_HD void operator()(std::int32_t e) const {
+    using A = typename CellArith<Cell>::type;
     const std::int32_t* c = corners + 8 * std::int64_t(e);
-    double xe[24], ye[24];
+    A xe[24], ye[24];
     element::gather_cell(x, c, xe);
-    for (int i = 0; i < 24; ++i) ye[i] = 0.0;
+    for (int i = 0; i < 24; ++i) ye[i] = A(0);
     cell.apply_add(e, c, xe, ye);
     element::scatter_add_cell(ye, c, y);
   }

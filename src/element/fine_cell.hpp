@@ -11,32 +11,35 @@ namespace hexcut::element {
 /// What a fine cell's operator needs: its unrotated stiffness K (24x24, symmetric,
 /// shared per material), its rotation (nullptr = identity), the stiffness weight, and
 /// the mass m = w_M rho h^3 with the reference consistent mass (nullptr = lumped, m/8).
-struct FineCell {
-  const double* K;
+/// T: the matrices' type and the arithmetic of fine_cell_apply_add (double; float for the
+/// fine level of the single-precision V-cycle, assembly::FineCellOpsSingle).
+template <class T>
+struct FineCellOf {
+  const T* K;
   const double* R;
   double w_stiffness;
   double mass;
-  const double* consistent_mass;
+  const T* consistent_mass;
   // A stiffness not formed (a cell without a shared kind, on a device where a 24x24
   // scratch per thread is too much): K = k_lambda K + k_mu K_mu, with K = the reference
   // K_lambda and K_mu set. Null K_mu: K is the stiffness itself.
-  const double* K_mu = nullptr;
+  const T* K_mu = nullptr;
   double k_lambda = 1.0, k_mu = 0.0;
 };
+using FineCell = FineCellOf<double>;
 
 /// The 24 values (3 per corner) of a cell from a vector with 3 values per vertex copy;
 /// `corners` are the cell's 8 local copy indices. V: double, or float for the loop-layer
-/// cycle's single-precision vectors (the cell's arithmetic stays double).
-template <class V>
-HEXCUT_HD inline void gather_cell(const V* v, const int* corners, double* out24) {
+/// cycle's single-precision vectors; A: the cell's arithmetic (double, or float).
+template <class V, class A>
+HEXCUT_HD inline void gather_cell(const V* v, const int* corners, A* out24) {
   for (int q = 0; q < 8; ++q)
-    for (int d = 0; d < 3; ++d) out24[3 * q + d] = v[3 * corners[q] + d];
+    for (int d = 0; d < 3; ++d) out24[3 * q + d] = A(v[3 * corners[q] + d]);
 }
 
 /// v += scale * in24 at the cell's 8 corners (3 values each; rounded to V once per add).
-template <class V>
-HEXCUT_HD inline void scatter_add_cell(const double* in24, const int* corners, V* v,
-                                       double scale = 1.0) {
+template <class V, class A>
+HEXCUT_HD inline void scatter_add_cell(const A* in24, const int* corners, V* v, A scale = A(1)) {
   for (int q = 0; q < 8; ++q)
     for (int d = 0; d < 3; ++d) v[3 * corners[q] + d] += V(scale * in24[3 * q + d]);
 }
@@ -69,9 +72,9 @@ HEXCUT_HD inline void stiffness_rows(const FineCell& c, const double* Kq, int q,
   for (int e = 0; e < 3; ++e) y3[e] = c.k_lambda * y3[e] + c.k_mu * m3[e];
 }
 
-/// y24 += scale K x24 with the cell's unrotated stiffness K.
-HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const double* x24,
-                                          double* y24);
+/// y24 += scale K x24 with the cell's unrotated stiffness K, in the arithmetic T.
+template <class T>
+HEXCUT_HD inline void stiffness_apply_add(const FineCellOf<T>& c, T scale, const T* x24, T* y24);
 
 /// y3 = rows of corner q of the fine cell's operator times x24.
 HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24, double* y3) {
@@ -103,53 +106,57 @@ HEXCUT_HD inline void fine_row_block(const FineCell& c, int q, const double* x24
 
 /// y24 += S x24 for a symmetric 24x24 S, as a sum of rows scaled by x (row k of S is
 /// column k): 24 independent accumulators that the compiler vectorizes. T: the stored type
-/// of S (double, or float for the multigrid's single-precision blocks); the arithmetic is
-/// double.
-template <class T>
-HEXCUT_HD HEXCUT_INLINE void symmetric_apply_add(const T* S, double scale, const double* x24,
-                                                 double* y24) {
-  double acc[24] = {0};
+/// of S (double, or float for the multigrid's single-precision blocks); A: the arithmetic
+/// (double; float only with float S, the fine level of the single-precision V-cycle, where
+/// the vector units hold twice the lanes).
+template <class T, class A = double>
+HEXCUT_HD HEXCUT_INLINE void symmetric_apply_add(const T* S, A scale, const A* x24, A* y24) {
+  A acc[24] = {0};
   for (int k = 0; k < 24; ++k) {
-    const double xk = x24[k];
+    const A xk = x24[k];
     const T* row = S + 24 * k;
-    for (int r = 0; r < 24; ++r) acc[r] += double(row[r]) * xk;
+    for (int r = 0; r < 24; ++r) acc[r] += A(row[r]) * xk;
   }
   for (int r = 0; r < 24; ++r) y24[r] += scale * acc[r];
 }
 
-HEXCUT_HD inline void stiffness_apply_add(const FineCell& c, double scale, const double* x24,
-                                          double* y24) {
+template <class T>
+HEXCUT_HD inline void stiffness_apply_add(const FineCellOf<T>& c, T scale, const T* x24, T* y24) {
   if (!c.K_mu) {
-    symmetric_apply_add(c.K, scale, x24, y24);
+    symmetric_apply_add<T, T>(c.K, scale, x24, y24);
     return;
   }
-  symmetric_apply_add(c.K, scale * c.k_lambda, x24, y24);
-  symmetric_apply_add(c.K_mu, scale * c.k_mu, x24, y24);
+  symmetric_apply_add<T, T>(c.K, scale * T(c.k_lambda), x24, y24);
+  symmetric_apply_add<T, T>(c.K_mu, scale * T(c.k_mu), x24, y24);
 }
 
 /// y24 += (w_K R^ K R^T + w_M M) x24 for a fine cell, without forming the rotated
-/// matrix: rotate x into the cell frame, apply K (symmetric), rotate back.
-HEXCUT_HD HEXCUT_INLINE void fine_cell_apply_add(const FineCell& c, const double* x24,
-                                                 double* y24) {
+/// matrix: rotate x into the cell frame, apply K (symmetric), rotate back. T: the cell's
+/// matrices and arithmetic (FineCellOf<T>; the rotation is read as double and used in T).
+template <class T>
+HEXCUT_HD HEXCUT_INLINE void fine_cell_apply_add(const FineCellOf<T>& c, const T* x24, T* y24) {
+  const T w = T(c.w_stiffness);
   if (c.R) {
-    const double* R = c.R;
-    double xl[24], yl[24] = {0};
+    T R[9];
+    for (int i = 0; i < 9; ++i) R[i] = T(c.R[i]);
+    T xl[24], yl[24] = {0};
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         xl[3 * p + i] = R[i] * x24[3 * p] + R[3 + i] * x24[3 * p + 1] + R[6 + i] * x24[3 * p + 2];
-    stiffness_apply_add(c, c.w_stiffness, xl, yl);
+    stiffness_apply_add(c, w, xl, yl);
     for (int p = 0; p < 8; ++p)
       for (int i = 0; i < 3; ++i)
         y24[3 * p + i] +=
             R[3 * i] * yl[3 * p] + R[3 * i + 1] * yl[3 * p + 1] + R[3 * i + 2] * yl[3 * p + 2];
   } else {
-    stiffness_apply_add(c, c.w_stiffness, x24, y24);
+    stiffness_apply_add(c, w, x24, y24);
   }
   if (c.mass != 0.0) {
     if (!c.consistent_mass) {
-      for (int r = 0; r < 24; ++r) y24[r] += 0.125 * c.mass * x24[r];
+      const T m = T(0.125 * c.mass);
+      for (int r = 0; r < 24; ++r) y24[r] += m * x24[r];
     } else {
-      symmetric_apply_add(c.consistent_mass, c.mass, x24, y24);
+      symmetric_apply_add<T, T>(c.consistent_mass, T(c.mass), x24, y24);
     }
   }
 }
