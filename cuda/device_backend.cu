@@ -173,11 +173,12 @@ class DeviceStoredCells {
           backend::CellApplyAdd<multigrid::StoredCellOps, V>{
               {packed_double_, block_of_}, corners_, x, y},
           order_, cells_);
-    else
-      launch_colours(
-          backend::CellApplyAdd<multigrid::StoredCellOpsSingle, V>{
-              {packed_single_, block_of_}, corners_, x, y},
-          order_, cells_);
+    else  // float blocks on float vectors: float arithmetic, as the host's StoredCells
+      launch_colours(backend::CellApplyAdd<
+                         multigrid::StoredCellOpsOf<
+                             float, std::conditional_t<std::is_same_v<V, float>, float, double>>,
+                         V>{{packed_single_, block_of_}, corners_, x, y},
+                     order_, cells_);
   }
   /// The rows of the copies of parity colour k only (`position`: the cells' level positions on
   /// the device; no synchronization).
@@ -271,6 +272,7 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::vector<CellArrays> cells;             // level 0: colour_offset points into offsets0
   std::vector<std::int32_t> offsets0;
   std::vector<std::unique_ptr<DeviceArray<double>>> doubles;
+  std::vector<std::unique_ptr<DeviceArray<float>>> floats;
   std::vector<std::unique_ptr<DeviceArray<std::int32_t>>> ints;
   std::vector<std::unique_ptr<DeviceArray<S>>> vectors;
   std::unique_ptr<DeviceFineCells> fine;
@@ -373,17 +375,30 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
     auto& d = levels[l];
     d = h;
     const auto n = std::size_t(h.num_copies);
-    d.mask = up(&doubles, h.mask, 3 * n);
-    d.diag_inv = up(&doubles, h.diag_inv, 9 * n);
+    // The level data in the vectors' type (float: the LoopLevel's float twins, rounded here).
+    const auto level_array = [&](const double* host, std::size_t count, const double** dbl,
+                                 const float** flt) {
+      *dbl = nullptr;
+      *flt = nullptr;
+      if constexpr (std::is_same_v<S, float>) {
+        if (!host) return;
+        const std::vector<float> rounded(host, host + count);
+        *flt = up(&floats, rounded.data(), count);
+      } else {
+        *dbl = up(&doubles, host, count);
+      }
+    };
+    level_array(h.mask, 3 * n, &d.mask, &d.mask_single);
+    level_array(h.diag_inv, 9 * n, &d.diag_inv, &d.diag_inv_single);
     d.colour_copy = up(&ints, h.colour_copy, std::size_t(h.colour_begin[8]));
     if (l + 1 < L) {
       d.prolong_coarse = up(&ints, h.prolong_coarse, 8 * n);
-      d.prolong_weight = up(&doubles, h.prolong_weight, 8 * n);
+      level_array(h.prolong_weight, 8 * n, &d.prolong_weight, &d.prolong_weight_single);
       const auto nc = std::size_t(h.num_coarse);
       const auto nr = std::size_t(h.restrict_offset[nc]);
       d.restrict_offset = up(&ints, h.restrict_offset, nc + 1);
       d.restrict_fine = up(&ints, h.restrict_fine, nr);
-      d.restrict_weight = up(&doubles, h.restrict_weight, nr);
+      level_array(h.restrict_weight, nr, &d.restrict_weight, &d.restrict_weight_single);
       cells[l] = in[l].cells;
       positions[l] = up(&ints, in[l].position, 3 * std::size_t(in[l].cells.num_cells));
       if (l == 0) {

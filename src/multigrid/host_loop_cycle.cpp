@@ -50,10 +50,28 @@ PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoo
     for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_local), S(0));
     PetscCall(ghost_sf(mg.comm(), c->levels_[l], &c->ghosts_[l]));
   }
-  if (!std::is_same_v<S, double>) {
+  if constexpr (std::is_same_v<S, float>) {
     const auto n = 3 * std::size_t(c->levels_.back().view.num_copies);
     c->coarse_b_.resize(n);
     c->coarse_x_.resize(n);
+    c->single_.resize(L);
+    for (std::size_t l = 0; l < L; ++l) {
+      auto& a = c->levels_[l];
+      auto& f = c->single_[l];
+      LoopLevel& v = a.view;
+      const auto copies = std::size_t(v.num_copies);
+      if (v.diag_inv) f[0].assign(v.diag_inv, v.diag_inv + 9 * copies);
+      f[1].assign(a.mask.begin(), a.mask.end());
+      f[2].assign(a.prolong_weight.begin(), a.prolong_weight.end());
+      f[3].assign(a.restrict_weight.begin(), a.restrict_weight.end());
+      v.diag_inv_single = f[0].empty() ? nullptr : f[0].data();
+      v.mask_single = f[1].data();
+      v.prolong_weight_single = f[2].empty() ? nullptr : f[2].data();
+      v.restrict_weight_single = f[3].empty() ? nullptr : f[3].data();
+      v.diag_inv = v.mask = v.prolong_weight = v.restrict_weight = nullptr;
+      for (auto* d : {&a.mask, &a.prolong_weight, &a.restrict_weight})
+        std::vector<double>().swap(*d);
+    }
   }
   *out = std::move(c);
   PetscFunctionReturn(0);

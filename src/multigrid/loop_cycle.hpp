@@ -24,11 +24,13 @@
 // accumulate() sums those into the owners (on one rank there are no ghosts, and exchange and
 // accumulate do nothing).
 // With Scalar = float the cycle is the single-precision V-cycle of mixed precision (doc/theory.md,
-// "Mixed precision"): vectors in float, each pointwise body computing in double from float
-// loads and rounding once per store; the level data (diagonal blocks, mask, weights) stay double.
+// "Mixed precision"): vectors and level data (diagonal blocks, mask, transfer weights: the
+// LoopLevel's float twins, level_data) in float, each pointwise body computing in double from
+// float loads and rounding once per store.
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "element/host_device.hpp"
@@ -61,7 +63,30 @@ struct LoopLevel {
   const std::int32_t* restrict_offset = nullptr;  // num_coarse + 1
   const std::int32_t* restrict_fine = nullptr;    // fine copies of each coarse copy
   const double* restrict_weight = nullptr;
+  // The same level data in float, for an executor whose vectors are float (its Scalar; null
+  // in a double one): the single-precision V-cycle reads its level data in its vectors' type.
+  const float* diag_inv_single = nullptr;
+  const float* mask_single = nullptr;
+  const float* prolong_weight_single = nullptr;
+  const float* restrict_weight_single = nullptr;
 };
+
+/// A level's data in the type V of an executor's vectors: LoopLevel's double arrays, or their
+/// float twins.
+template <class V>
+struct LoopLevelData {
+  const V* diag_inv;
+  const V* mask;
+  const V* prolong_weight;
+  const V* restrict_weight;
+};
+template <class V>
+LoopLevelData<V> level_data(const LoopLevel& L) {
+  if constexpr (std::is_same_v<V, float>)
+    return {L.diag_inv_single, L.mask_single, L.prolong_weight_single, L.restrict_weight_single};
+  else
+    return {L.diag_inv, L.mask, L.prolong_weight, L.restrict_weight};
+}
 
 /// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
 /// diagonal blocks stay the Multigrid's (diag_inv points into it).
@@ -85,7 +110,8 @@ struct LoopLevelArrays {
   std::vector<double> restrict_weight;
 };
 
-/// y = 0 (3 values per copy). V: the work vectors' type (Exec::Scalar) in all the bodies below.
+/// y = 0 (3 values per copy). V: the work vectors' type (Exec::Scalar) in all the bodies below,
+/// and the type of the level data they read (level_data<V>).
 template <class V>
 struct Zero {
   V* y;
@@ -112,8 +138,8 @@ struct GaussSeidelUpdate {
   const std::int32_t* copy;
   const V* b;
   const V* r;
-  const double* mask;
-  const double* diag_inv;
+  const V* mask;
+  const V* diag_inv;
   double omega;
   V* x;
   HEXCUT_HD void operator()(std::int32_t j) const {
@@ -123,7 +149,7 @@ struct GaussSeidelUpdate {
       const auto k = 3 * i + c;
       res[c] = double(b[k]) - double(r[k]) - (mask[k] == 0.0 ? double(x[k]) : 0.0);
     }
-    const double* D = diag_inv + 9 * i;
+    const V* D = diag_inv + 9 * i;
     for (int c = 0; c < 3; ++c) {
       V& xc = x[3 * i + c];
       xc = V(double(xc) +
@@ -139,7 +165,7 @@ template <class V>
 struct Residual {
   const V* b;
   const V* x;
-  const double* mask;
+  const V* mask;
   bool masked;
   V* r;
   HEXCUT_HD void operator()(std::int32_t i) const {
@@ -154,12 +180,12 @@ struct Residual {
 /// dir = alpha D^-1 r + beta dir (beta = 0: dir's old values are not read).
 template <class V>
 struct JacobiDirection {
-  const double* diag_inv;
+  const V* diag_inv;
   const V* r;
   double alpha, beta;
   V* dir;
   HEXCUT_HD void operator()(std::int32_t i) const {
-    const double* D = diag_inv + 9 * std::int64_t(i);
+    const V* D = diag_inv + 9 * std::int64_t(i);
     const V* ri = r + 3 * std::int64_t(i);
     const double r0 = ri[0], r1 = ri[1], r2 = ri[2];
     for (int c = 0; c < 3; ++c) {
@@ -186,13 +212,13 @@ template <class V>
 struct Restrict {
   const std::int32_t* offset;
   const std::int32_t* fine;
-  const double* weight;
+  const V* weight;
   const V* r;
   V* b;
   HEXCUT_HD void operator()(std::int32_t C) const {
     double s[3] = {0.0, 0.0, 0.0};
     for (auto k = offset[C]; k < offset[C + 1]; ++k)
-      for (int c = 0; c < 3; ++c) s[c] += weight[k] * r[3 * std::int64_t(fine[k]) + c];
+      for (int c = 0; c < 3; ++c) s[c] += double(weight[k]) * r[3 * std::int64_t(fine[k]) + c];
     for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = V(s[c]);
   }
 };
@@ -201,8 +227,8 @@ struct Restrict {
 template <class V>
 struct ProlongAdd {
   const std::int32_t* coarse;
-  const double* weight;
-  const double* mask;
+  const V* weight;
+  const V* mask;
   const V* xc;
   V* x;
   HEXCUT_HD void operator()(std::int32_t f) const {
@@ -229,7 +255,7 @@ void residual(Exec& ex, int l, const V* b, V* x, V* r, bool masked) {
   ex.exchange(l, x);
   ex.apply_add(l, x, r);
   ex.accumulate(l, r);
-  ex.for_each(L.num_copies, Residual<V>{b, x, L.mask, masked, r});
+  ex.for_each(L.num_copies, Residual<V>{b, x, level_data<V>(L).mask, masked, r});
 }
 
 /// Chebyshev iteration on D^-1 A over [0.2, 1.1] lambda_max, `degree` steps from x (the
@@ -242,14 +268,15 @@ void chebyshev(Exec& ex, int l, const V* b, V* x, int degree) {
   double rho_old = 1.0 / sigma;
   V *r = ex.r(l), *dir = ex.dir(l);
   residual(ex, l, b, x, r, false);
-  ex.for_each(L.num_copies, JacobiDirection<V>{L.diag_inv, r, 1.0 / theta, 0.0, dir});
+  const V* diag_inv = level_data<V>(L).diag_inv;
+  ex.for_each(L.num_copies, JacobiDirection<V>{diag_inv, r, 1.0 / theta, 0.0, dir});
   for (int i = 0; i < degree; ++i) {
     ex.for_each(L.num_copies, AddTo<V>{dir, x});
     if (i + 1 == degree) break;
     residual(ex, l, b, x, r, false);
     const double rho = 1.0 / (2.0 * sigma - rho_old);
     ex.for_each(L.num_copies,
-                JacobiDirection<V>{L.diag_inv, r, 2.0 * rho / delta, rho * rho_old, dir});
+                JacobiDirection<V>{diag_inv, r, 2.0 * rho / delta, rho * rho_old, dir});
     rho_old = rho;
   }
 }
@@ -260,6 +287,7 @@ void chebyshev(Exec& ex, int l, const V* b, V* x, int degree) {
 template <class Exec, class V = typename Exec::Scalar>
 void gauss_seidel(Exec& ex, int l, const V* b, V* x, bool reverse) {
   const LoopLevel& L = ex.level(l);
+  const auto data = level_data<V>(L);
   V* r = ex.r(l);
   for (int kk = 0; kk < 8; ++kk) {
     const int k = reverse ? 7 - kk : kk;
@@ -270,7 +298,7 @@ void gauss_seidel(Exec& ex, int l, const V* b, V* x, bool reverse) {
     ex.exchange(l, x);
     ex.apply_add_colour(l, k, x, r);
     ex.accumulate(l, r);
-    ex.for_each(n, GaussSeidelUpdate<V>{copies, b, r, L.mask, L.diag_inv, L.omega, x});
+    ex.for_each(n, GaussSeidelUpdate<V>{copies, b, r, data.mask, data.diag_inv, L.omega, x});
   }
 }
 
@@ -296,20 +324,21 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   }
   using V = typename Exec::Scalar;
   const LoopLevel& L = ex.level(l);
+  const auto data = level_data<V>(L);
   V *b = ex.b(l), *x = ex.x(l), *r = ex.r(l);
   if (zero_guess) ex.for_each(L.num_copies, Zero<V>{x});
   smooth(ex, l, b, x, L.presmooth, false);
   residual(ex, l, b, x, r, true);
   // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
   // included, and the ghosts' partial sums go to their owners.
-  ex.for_each(L.num_coarse,
-              Restrict<V>{L.restrict_offset, L.restrict_fine, L.restrict_weight, r, ex.b(l + 1)});
+  ex.for_each(L.num_coarse, Restrict<V>{L.restrict_offset, L.restrict_fine, data.restrict_weight, r,
+                                        ex.b(l + 1)});
   ex.accumulate(l + 1, ex.b(l + 1));
   const int visits = l + 2 == levels ? 1 : ex.gamma();
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
   ex.exchange(l + 1, ex.x(l + 1));
   ex.for_each(L.num_copies,
-              ProlongAdd<V>{L.prolong_coarse, L.prolong_weight, L.mask, ex.x(l + 1), x});
+              ProlongAdd<V>{L.prolong_coarse, data.prolong_weight, data.mask, ex.x(l + 1), x});
   smooth(ex, l, b, x, L.postsmooth, true);
 }
 
