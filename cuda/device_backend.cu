@@ -399,6 +399,8 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
       d.restrict_offset = up(&ints, h.restrict_offset, nc + 1);
       d.restrict_fine = up(&ints, h.restrict_fine, nr);
       level_array(h.restrict_weight, nr, &d.restrict_weight, &d.restrict_weight_single);
+      level_array(h.prolong_block, 72 * n, &d.prolong_block, &d.prolong_block_single);
+      level_array(h.restrict_block, 9 * nr, &d.restrict_block, &d.restrict_block_single);
       cells[l] = in[l].cells;
       positions[l] = up(&ints, in[l].position, 3 * std::size_t(in[l].cells.num_cells));
       if (l == 0) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <set>
 #include <utility>
@@ -46,11 +47,11 @@ CycleBackendFactory device_cycle_factory() {
 
 const char* loop_cycle_refusal(const Options& o, int ranks) {
   // The host executor exchanges ghosts through MPI; the device executor has no halo yet.
-  return ranks > 1 && o.backend == Backend::cuda       ? "more than one MPI rank"
-         : o.first_level > 0                           ? "composite elements"
-         : o.interpolation != Interpolation::trilinear ? "-gmg_interpolation energy or smoothed"
-         : o.schwarz_from >= 0                         ? "-gmg_schwarz_from"
-                                                       : nullptr;
+  return ranks > 1 && o.backend == Backend::cuda      ? "more than one MPI rank"
+         : o.first_level > 0                          ? "composite elements"
+         : o.interpolation == Interpolation::smoothed ? "-gmg_interpolation smoothed"
+         : o.schwarz_from >= 0                        ? "-gmg_schwarz_from"
+                                                      : nullptr;
 }
 
 struct Multigrid::LevelData {
@@ -533,14 +534,104 @@ const assembly::CellOperator* Multigrid::cell_operator(int l) const {
   return data_[l]->A ? nullptr : data_[l]->op;
 }
 
+PetscErrorCode Multigrid::scalar_prolongation(
+    int l, PetscInt coarse_begin, const std::function<std::int32_t(PetscInt)>& coarse_local,
+    LoopLevelArrays* a) const {
+  PetscFunctionBeginUser;
+  // The scalar AIJ inside the trilinear MAIJ: rows the owned fine copies, columns coarse global
+  // blocks (on more ranks, its diagonal part the owned coarse copies, its off-diagonal part
+  // the others through colmap).
+  const auto& D = levels_[l].layout();
+  Mat S, parts[2] = {nullptr, nullptr};
+  const PetscInt* colmap = nullptr;
+  PetscCall(MatMAIJGetAIJ(data_[l]->P, &S));
+  PetscBool mpi;
+  PetscCall(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(S), MATMPIAIJ, &mpi));
+  if (mpi)
+    PetscCall(MatMPIAIJGetSeqAIJ(S, &parts[0], &parts[1], &colmap));
+  else
+    parts[0] = S;
+  a->prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
+  std::vector<int> filled(std::size_t(D.num_owned), 0);
+  for (int part = 0; part < 2; ++part) {
+    if (!parts[part]) continue;
+    PetscInt rows;
+    const PetscInt *ia, *ja;
+    PetscBool done;
+    PetscCall(MatGetRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+    bool shape_ok = done && rows == D.num_owned;
+    for (PetscInt f = 0; shape_ok && f < rows; ++f)
+      shape_ok = filled[std::size_t(f)] + (ia[f + 1] - ia[f]) <= 8;
+    if (!shape_ok) {
+      if (done)
+        PetscCall(
+            MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+      SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
+              "gmg: level %d's interpolation is not one row of at most 8 weights per copy", l);
+    }
+    const PetscScalar* w;
+    PetscCall(MatSeqAIJGetArrayRead(parts[part], &w));
+    for (PetscInt f = 0; f < rows; ++f)
+      for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
+        const PetscInt g = part == 0 ? (mpi ? coarse_begin + ja[k] : ja[k]) : colmap[ja[k]];
+        const auto j = 8 * std::size_t(f) + std::size_t(filled[std::size_t(f)]++);
+        a->prolong_coarse[j] = coarse_local(g);
+        a->prolong_weight[j] = w[k];
+      }
+    PetscCall(MatSeqAIJRestoreArrayRead(parts[part], &w));
+    PetscCall(MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Multigrid::block_prolongation(
+    int l, const std::function<std::int32_t(PetscInt)>& coarse_local, LoopLevelArrays* a) const {
+  PetscFunctionBeginUser;
+  // Energy-minimizing rows: P is a BAIJ of 3x3 blocks (interpolation_matrix). Its rows read one
+  // scalar row at a time (global column 3C + b: block column C, component b), so that the
+  // blocks come out row-major whatever the matrix stores.
+  const auto& D = levels_[l].layout();
+  Mat P = data_[l]->P;
+  PetscInt first;
+  PetscCall(MatGetOwnershipRange(P, &first, nullptr));
+  a->prolong_block.assign(72 * std::size_t(D.num_owned), 0.0);
+  for (std::int32_t f = 0; f < D.num_owned; ++f) {
+    PetscInt block_col[8];
+    int n = 0;
+    for (int r = 0; r < 3; ++r) {
+      PetscInt nc;
+      const PetscInt* cols;
+      const PetscScalar* vals;
+      PetscCall(MatGetRow(P, first + 3 * f + r, &nc, &cols, &vals));
+      for (PetscInt k = 0; k < nc; ++k) {
+        const PetscInt C = cols[k] / 3;
+        int j = 0;
+        while (j < n && block_col[j] != C) ++j;
+        if (j == n) {
+          if (n == 8) {
+            PetscCall(MatRestoreRow(P, first + 3 * f + r, &nc, &cols, &vals));
+            SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
+                    "gmg: level %d's interpolation has more than 8 coarse copies in a row", l);
+          }
+          block_col[n++] = C;
+        }
+        a->prolong_block[72 * std::size_t(f) + 9 * std::size_t(j) + 3 * std::size_t(r) +
+                         std::size_t(cols[k] % 3)] = vals[k];
+      }
+      PetscCall(MatRestoreRow(P, first + 3 * f + r, &nc, &cols, &vals));
+    }
+    for (int j = 0; j < n; ++j)
+      a->prolong_coarse[8 * std::size_t(f) + j] = coarse_local(block_col[j]);
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
   PetscFunctionBeginUser;
   PetscMPIInt size;
   PetscCallMPI(MPI_Comm_size(comm_, &size));
   const char* why = loop_cycle_refusal(opt_, size);
   if (!why && !built_) why = "a cycle before the first update()";
-  for (int l = 0; l + 1 < num_levels() && !why; ++l)
-    if (!rows_[l].empty()) why = "-gmg_interpolation energy (rows that are not trilinear)";
   PetscCheck(!why, comm_, PETSC_ERR_SUP,
              "gmg: the loop-layer cycle (-gmg_backend cuda) does not support %s yet; the host "
              "backend does",
@@ -608,46 +699,11 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
         if (added) extra[l + 1].push_back(g);
         return it->second;
       };
-      Mat S, parts[2] = {nullptr, nullptr};
-      const PetscInt* colmap = nullptr;
-      PetscCall(MatMAIJGetAIJ(data_[l]->P, &S));
-      PetscBool mpi;
-      PetscCall(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(S), MATMPIAIJ, &mpi));
-      if (mpi)
-        PetscCall(MatMPIAIJGetSeqAIJ(S, &parts[0], &parts[1], &colmap));
-      else
-        parts[0] = S;
       a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
-      a.prolong_weight.assign(8 * std::size_t(D.num_owned), 0.0);
-      std::vector<int> filled(std::size_t(D.num_owned), 0);
-      for (int part = 0; part < 2; ++part) {
-        if (!parts[part]) continue;
-        PetscInt rows;
-        const PetscInt *ia, *ja;
-        PetscBool done;
-        PetscCall(MatGetRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-        bool shape_ok = done && rows == D.num_owned;
-        for (PetscInt f = 0; shape_ok && f < rows; ++f)
-          shape_ok = filled[std::size_t(f)] + (ia[f + 1] - ia[f]) <= 8;
-        if (!shape_ok) {
-          if (done)
-            PetscCall(
-                MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
-          SETERRQ(PETSC_COMM_SELF, PETSC_ERR_PLIB,
-                  "gmg: level %d's interpolation is not one row of at most 8 weights per copy", l);
-        }
-        const PetscScalar* w;
-        PetscCall(MatSeqAIJGetArrayRead(parts[part], &w));
-        for (PetscInt f = 0; f < rows; ++f)
-          for (PetscInt k = ia[f]; k < ia[f + 1]; ++k) {
-            const PetscInt g = part == 0 ? (mpi ? coarse_begin + ja[k] : ja[k]) : colmap[ja[k]];
-            const auto j = 8 * std::size_t(f) + std::size_t(filled[std::size_t(f)]++);
-            a.prolong_coarse[j] = coarse_local(g);
-            a.prolong_weight[j] = w[k];
-          }
-        PetscCall(MatSeqAIJRestoreArrayRead(parts[part], &w));
-        PetscCall(
-            MatRestoreRowIJ(parts[part], 0, PETSC_FALSE, PETSC_FALSE, &rows, &ia, &ja, &done));
+      if (rows_[l].empty()) {
+        PetscCall(scalar_prolongation(l, coarse_begin, coarse_local, &a));
+      } else {
+        PetscCall(block_prolongation(l, coarse_local, &a));
       }
       // The restriction: the same weights gathered per coarse local copy (ghosts included).
       const auto num_coarse = std::size_t(C.num_local()) + extra[l + 1].size();
@@ -656,20 +712,29 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
         if (c >= 0) ++a.restrict_offset[std::size_t(c) + 1];
       for (std::size_t c = 0; c < num_coarse; ++c) a.restrict_offset[c + 1] += a.restrict_offset[c];
       a.restrict_fine.resize(std::size_t(a.restrict_offset.back()));
-      a.restrict_weight.resize(a.restrict_fine.size());
+      const bool blocks = !a.prolong_block.empty();
+      (blocks ? a.restrict_block : a.restrict_weight)
+          .resize((blocks ? 9 : 1) * a.restrict_fine.size());
       std::vector<std::int32_t> next(a.restrict_offset.begin(), a.restrict_offset.end() - 1);
       for (std::int32_t f = 0; f < D.num_owned; ++f)
         for (int k = 0; k < 8 && a.prolong_coarse[8 * std::size_t(f) + k] >= 0; ++k) {
-          const auto c = a.prolong_coarse[8 * std::size_t(f) + k];
+          const auto j = 8 * std::size_t(f) + std::size_t(k);
+          const auto c = a.prolong_coarse[j];
           a.restrict_fine[next[c]] = f;
-          a.restrict_weight[next[c]++] = a.prolong_weight[8 * std::size_t(f) + k];
+          if (blocks)
+            std::copy_n(&a.prolong_block[9 * j], 9, &a.restrict_block[9 * std::size_t(next[c])]);
+          else
+            a.restrict_weight[next[c]] = a.prolong_weight[j];
+          ++next[c];
         }
       a.view.num_coarse = std::int64_t(num_coarse);
       a.view.prolong_coarse = a.prolong_coarse.data();
-      a.view.prolong_weight = a.prolong_weight.data();
+      a.view.prolong_weight = a.prolong_weight.empty() ? nullptr : a.prolong_weight.data();
+      a.view.prolong_block = a.prolong_block.empty() ? nullptr : a.prolong_block.data();
       a.view.restrict_offset = a.restrict_offset.data();
       a.view.restrict_fine = a.restrict_fine.data();
-      a.view.restrict_weight = a.restrict_weight.data();
+      a.view.restrict_weight = a.restrict_weight.empty() ? nullptr : a.restrict_weight.data();
+      a.view.restrict_block = a.restrict_block.empty() ? nullptr : a.restrict_block.data();
     }
     a.view.mask = a.mask.data();
   }

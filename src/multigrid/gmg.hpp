@@ -19,6 +19,7 @@
 #include <petscksp.h>
 #include <petscsf.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -48,7 +49,7 @@ struct Options;
 
 /// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
 /// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi or coloured block
-/// Gauss-Seidel, trilinear interpolation,
+/// Gauss-Seidel, trilinear or energy-minimizing interpolation,
 /// fine hexahedra (no composite elements), on any number of ranks on the host and on one rank
 /// with Backend::cuda.
 const char* loop_cycle_refusal(const Options& o, int ranks);
@@ -272,8 +273,8 @@ class Multigrid {
   /// layout's copy order (owned copies, then the layout's ghosts, then the coarse copies a
   /// transfer reaches beyond those; LoopLevelArrays::ghost_rank/ghost_index connect the ghosts
   /// to their owners). Refused (PETSC_ERR_SUP, with the reason) where that cycle is not the one
-  /// cycle() runs: composite elements, Schwarz patches, energy-minimizing or
-  /// smoothed interpolation, an assembled level (and -gmg_backend cuda on more than one rank).
+  /// cycle() runs: composite elements, Schwarz patches, smoothed interpolation, an assembled
+  /// level (and -gmg_backend cuda on more than one rank).
   PetscErrorCode loop_levels(std::vector<LoopLevelArrays>* out) const;
   /// Options::cycle_gamma: 1 V-cycle, 2 W-cycle.
   int cycle_gamma() const { return opt_.cycle_gamma; }
@@ -285,6 +286,14 @@ class Multigrid {
 
  private:
   struct LevelData;
+  // loop_levels' transfer from level l+1: the trilinear MAIJ's scalar weights, or the energy
+  // rows' 3x3 blocks; coarse_local maps a coarse global block to its local copy.
+  PetscErrorCode scalar_prolongation(int l, PetscInt coarse_begin,
+                                     const std::function<std::int32_t(PetscInt)>& coarse_local,
+                                     LoopLevelArrays* a) const;
+  PetscErrorCode block_prolongation(int l,
+                                    const std::function<std::int32_t(PetscInt)>& coarse_local,
+                                    LoopLevelArrays* a) const;
   PetscErrorCode apply_level_impl(int l, Vec x, Vec y);
   PetscErrorCode smooth(int l, Vec b, Vec x, int sweeps, bool reverse);
   PetscErrorCode gauss_seidel(int l, Vec b, Vec x, bool reverse);

@@ -1,10 +1,10 @@
 // The multigrid cycle on the loop layer (issue 13; doc/theory.md, "The CUDA backend: the
 // cycle on the loop layer"): the V- or W-cycle of Multigrid::cycle (Chebyshev on point-block
-// Jacobi or coloured block Gauss-Seidel, trilinear transfers, the coarsest level solved by the
-// caller) written once over an
-// executor, so that the host backend and the CUDA backend run the same algorithm with the same
-// pointwise bodies. Everything here is plain data and HEXCUT_HD functors on 3 values per vertex
-// copy (structure of arrays), free of PETSc, so nvcc compiles it too.
+// Jacobi or coloured block Gauss-Seidel, trilinear or energy-minimizing transfers, the coarsest
+// level solved by the caller) written once over an executor, so that the host backend and the CUDA
+// backend run the same algorithm with the same pointwise bodies. Everything here is plain data and
+// HEXCUT_HD functors on 3 values per vertex copy (structure of arrays), free of PETSc, so nvcc
+// compiles it too.
 //
 // An executor `Exec` provides, for levels l = 0..num_levels()-1 (all arrays in its memory):
 //   using Scalar = double or float;                 the work vectors' type
@@ -63,12 +63,19 @@ struct LoopLevel {
   const std::int32_t* restrict_offset = nullptr;  // num_coarse + 1
   const std::int32_t* restrict_fine = nullptr;    // fine copies of each coarse copy
   const double* restrict_weight = nullptr;
+  // Energy-minimizing rows (-gmg_interpolation energy): 3x3 blocks instead of scalar weights
+  // (the weights above are then null): 8 blocks per fine copy (row-major, in the order of
+  // prolong_coarse) and, per restriction entry, that entry's block (applied transposed).
+  const double* prolong_block = nullptr;
+  const double* restrict_block = nullptr;
   // The same level data in float, for an executor whose vectors are float (its Scalar; null
   // in a double one): the single-precision V-cycle reads its level data in its vectors' type.
   const float* diag_inv_single = nullptr;
   const float* mask_single = nullptr;
   const float* prolong_weight_single = nullptr;
   const float* restrict_weight_single = nullptr;
+  const float* prolong_block_single = nullptr;
+  const float* restrict_block_single = nullptr;
 };
 
 /// A level's data in the type V of an executor's vectors: LoopLevel's double arrays, or their
@@ -79,13 +86,17 @@ struct LoopLevelData {
   const V* mask;
   const V* prolong_weight;
   const V* restrict_weight;
+  const V* prolong_block;
+  const V* restrict_block;
 };
 template <class V>
 LoopLevelData<V> level_data(const LoopLevel& L) {
   if constexpr (std::is_same_v<V, float>)
-    return {L.diag_inv_single, L.mask_single, L.prolong_weight_single, L.restrict_weight_single};
+    return {L.diag_inv_single,        L.mask_single,          L.prolong_weight_single,
+            L.restrict_weight_single, L.prolong_block_single, L.restrict_block_single};
   else
-    return {L.diag_inv, L.mask, L.prolong_weight, L.restrict_weight};
+    return {L.diag_inv,        L.mask,          L.prolong_weight,
+            L.restrict_weight, L.prolong_block, L.restrict_block};
 }
 
 /// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
@@ -108,6 +119,7 @@ struct LoopLevelArrays {
   std::vector<double> prolong_weight;
   std::vector<std::int32_t> restrict_offset, restrict_fine;
   std::vector<double> restrict_weight;
+  std::vector<double> prolong_block, restrict_block;  // energy rows (else empty)
 };
 
 /// y = 0 (3 values per copy). V: the work vectors' type (Exec::Scalar) in all the bodies below,
@@ -223,6 +235,26 @@ struct Restrict {
   }
 };
 
+/// Restrict with 3x3 blocks (energy rows): b_C = sum over f of B_fC^T r_f.
+template <class V>
+struct RestrictBlock {
+  const std::int32_t* offset;
+  const std::int32_t* fine;
+  const V* block;  // 9 per entry, row-major B_fC
+  const V* r;
+  V* b;
+  HEXCUT_HD void operator()(std::int32_t C) const {
+    double s[3] = {0.0, 0.0, 0.0};
+    for (auto k = offset[C]; k < offset[C + 1]; ++k) {
+      const V* B = block + 9 * std::int64_t(k);
+      const V* rf = r + 3 * std::int64_t(fine[k]);
+      for (int c = 0; c < 3; ++c)
+        s[c] += double(B[c]) * rf[0] + double(B[3 + c]) * rf[1] + double(B[6 + c]) * rf[2];
+    }
+    for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = V(s[c]);
+  }
+};
+
 /// x_f += mask_f sum_j w_fj x_C(j), per fine copy f (the coarse correction).
 template <class V>
 struct ProlongAdd {
@@ -241,6 +273,30 @@ struct ProlongAdd {
     }
     for (int c = 0; c < 3; ++c)
       x[3 * std::int64_t(f) + c] += V(mask[3 * std::int64_t(f) + c] * s[c]);
+  }
+};
+
+/// ProlongAdd with 3x3 blocks (energy rows): x_f += mask_f sum_j B_fj x_C(j).
+template <class V>
+struct ProlongAddBlock {
+  const std::int32_t* coarse;
+  const V* block;  // 72 per fine copy
+  const V* mask;
+  const V* xc;
+  V* x;
+  HEXCUT_HD void operator()(std::int32_t f) const {
+    double s[3] = {0.0, 0.0, 0.0};
+    for (int j = 0; j < 8; ++j) {
+      const auto C = coarse[8 * std::int64_t(f) + j];
+      if (C < 0) break;
+      const V* B = block + 72 * std::int64_t(f) + 9 * j;
+      const V* xj = xc + 3 * std::int64_t(C);
+      for (int c = 0; c < 3; ++c)
+        s[c] +=
+            double(B[3 * c]) * xj[0] + double(B[3 * c + 1]) * xj[1] + double(B[3 * c + 2]) * xj[2];
+    }
+    for (int c = 0; c < 3; ++c)
+      x[3 * std::int64_t(f) + c] += V(double(mask[3 * std::int64_t(f) + c]) * s[c]);
   }
 };
 
@@ -331,14 +387,22 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   residual(ex, l, b, x, r, true);
   // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
   // included, and the ghosts' partial sums go to their owners.
-  ex.for_each(L.num_coarse, Restrict<V>{L.restrict_offset, L.restrict_fine, data.restrict_weight, r,
-                                        ex.b(l + 1)});
+  if (data.restrict_block)
+    ex.for_each(L.num_coarse, RestrictBlock<V>{L.restrict_offset, L.restrict_fine,
+                                               data.restrict_block, r, ex.b(l + 1)});
+  else
+    ex.for_each(L.num_coarse, Restrict<V>{L.restrict_offset, L.restrict_fine, data.restrict_weight,
+                                          r, ex.b(l + 1)});
   ex.accumulate(l + 1, ex.b(l + 1));
   const int visits = l + 2 == levels ? 1 : ex.gamma();
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
   ex.exchange(l + 1, ex.x(l + 1));
-  ex.for_each(L.num_copies,
-              ProlongAdd<V>{L.prolong_coarse, data.prolong_weight, data.mask, ex.x(l + 1), x});
+  if (data.prolong_block)
+    ex.for_each(L.num_copies, ProlongAddBlock<V>{L.prolong_coarse, data.prolong_block, data.mask,
+                                                 ex.x(l + 1), x});
+  else
+    ex.for_each(L.num_copies,
+                ProlongAdd<V>{L.prolong_coarse, data.prolong_weight, data.mask, ex.x(l + 1), x});
   smooth(ex, l, b, x, L.postsmooth, true);
 }
 

@@ -231,7 +231,7 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
       "-gmg_backend",
       "Where the cycle runs: host (PETSc vectors, every option, any ranks), host_loop (the "
       "CUDA backend's loop-layer cycle on the host, any ranks), cuda (device 0; one rank); "
-      "host_loop and cuda: Chebyshev or Gauss-Seidel, trilinear, no composite elements",
+      "host_loop and cuda: Chebyshev or Gauss-Seidel, trilinear or energy, no composite elements",
       "", backends, 3, backends[choice], &choice, &set));
   if (set) o.backend = Backend(choice);
   flag = o.view ? PETSC_TRUE : PETSC_FALSE;

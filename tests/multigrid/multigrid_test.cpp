@@ -1121,8 +1121,8 @@ std::vector<double> backend_cycle(multigrid::CycleBackend& cycle, Vec b) {
 TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
   // The cycle written once over an executor (multigrid/loop_cycle.hpp: what the CUDA backend
   // runs) on the host backend equals Multigrid::cycle, the PETSc-vector cycle, to round-off
-  // (the transfers sum in another order): V and W, Chebyshev and Gauss-Seidel, double and
-  // float coarse blocks, the holed
+  // (the transfers sum in another order): V and W, Chebyshev and Gauss-Seidel, trilinear and
+  // energy-minimizing transfers, double and float coarse blocks, the holed
   // two-material corotated block and the cut 3-cell blade grid (coarse cells of several
   // pieces, dead coarse DOFs). On 2 ranks (multigrid_mpi_test) the same, through the
   // executor's ghost exchange: each rank compares its owned values.
@@ -1131,6 +1131,10 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     const char* options;
     bool cut;
     int superblock;
+    // Round-off is what the two cycles may differ by, times what the cycle itself amplifies
+    // it by: ~1 except on the energy rows of the two-material block, where Multigrid::cycle
+    // answers a 1e-15 relative change of b with 1.1e-12 (measured): there 1e3 x the bounds.
+    double amplification = 1.0;
   };
   const Case cases[] = {
       {kBlock, "-gmg_levels 3", false, 8},
@@ -1144,6 +1148,11 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
       {kBlock, "-gmg_levels 3 -gmg_smoother gs", false, 8},
       {kBlock, "-gmg_levels 3 -gmg_smoother gs -gmg_presmooth 2 -gmg_omega 0.9", false, 1},
       {blade_grid_cube(true, 20.0), "-gmg_levels 4 -gmg_cycle w -gmg_smoother gs", true, 8},
+      // Energy-minimizing rows (3x3 blocks): around the two materials' interface, and after
+      // the cut (irregular coarse cells).
+      {kBlock, "-gmg_levels 3 -gmg_interpolation energy", false, 8, 1e3},
+      {blade_grid_cube(true, 20.0), "-gmg_levels 4 -gmg_cycle w -gmg_interpolation energy", true,
+       8},
   };
   for (const auto& c : cases) {
     Job job(PETSC_COMM_WORLD, c.yaml, c.superblock, c.options);
@@ -1155,6 +1164,12 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     HEXCUT_CALL(mg.update(job.model.cells, {1.0, 0.0, true}, job.model.boundary.constraints.rows));
     std::unique_ptr<multigrid::HostLoopCycle> loop;
     HEXCUT_CALL(multigrid::HostLoopCycle::create(mg, &loop));
+    if (std::strstr(c.options, "energy")) {  // the case has block rows, not only weights
+      bool blocks = false;
+      for (int l = 0; l + 1 < loop->num_levels(); ++l)
+        blocks |= loop->level(l).prolong_block != nullptr;
+      EXPECT_TRUE(blocks) << c.options << ": no energy rows";
+    }
     Vec b, x;
     HEXCUT_CALL(mg.create_vector(0, &b));
     VecDuplicate(b, &x);
@@ -1168,7 +1183,7 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     std::printf("%s%s: %d levels, max |loop - cycle| / max |cycle| = %.1e\n", c.options,
                 c.cut ? " (cut)" : "", mg.num_levels(), d.relative());
     EXPECT_GT(d.magnitude, 0.0);
-    EXPECT_LT(d.relative(), 1e-12) << c.options;
+    EXPECT_LT(d.relative(), 1e-12 * c.amplification) << c.options;
     // The same cycle on float vectors: float's rounding (2^-24 = 6e-8 per operation, grown
     // by the cycle's contraction), neither double's round-off nor a different cycle.
     std::unique_ptr<multigrid::HostLoopCycleSingle> single;
@@ -1177,7 +1192,7 @@ TEST(Multigrid, LoopCycleOnTheHostIsTheCycle) {
     const auto ds = max_difference(y.data(), ys.data(), y.size());
     std::printf("  in float: max |float - double| / max |double| = %.1e\n", ds.relative());
     EXPECT_GT(ds.relative(), 1e-9) << c.options << ": not float";
-    EXPECT_LT(ds.relative(), 1e-5) << c.options;
+    EXPECT_LT(ds.relative(), 1e-5 * c.amplification) << c.options;
     VecDestroy(&b);
     VecDestroy(&x);
   }
