@@ -264,8 +264,8 @@ struct DeviceCycle::Executor {
 };
 
 /// The executor of multigrid::loop::cycle_level on the device (multigrid/loop_cycle.hpp), with
-/// work vectors of type S: double, or float for the single-precision V-cycle (the level data,
-/// diagonal blocks, masks and weights, stay double as on the host).
+/// work vectors of type S: double, or float for the single-precision V-cycle (then its level
+/// data, diagonal blocks, masks and weights, are rounded to float on upload, as on the host).
 template <class S>
 struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::vector<multigrid::LoopLevel> levels;  // device pointers

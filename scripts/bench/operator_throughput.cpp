@@ -2,8 +2,8 @@
 //  - assembled: PETSc MatMult on the AIJ matrix (block size 3, inodes);
 //  - matrix-free: hexcut's multigrid fine operator (per-material K, no 24x24 per cell),
 //    with identity rotations (linear) and with rotations (corotational);
-//  - the same fine cells' y += A x on plain arrays with double and with float vectors (the
-//    single-precision V-cycle's: the cells' data and arithmetic stay double);
+//  - the same fine cells' y += A x on plain arrays with double vectors and arithmetic, and with
+//    float ones (the single-precision V-cycle's: float copies of the stiffness);
 //  - the multigrid's level 1 (stored Galerkin blocks), with the blocks shared by equal
 //    cells (the default for linear runs) and with a block per cell (-gmg_shared_blocks false),
 //    each in double and in float (-gmg_precision single);
@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
         median_seconds(int(repeat), [&] { check_petsc(mg.apply_fine(x, y), "apply"); });
     // The fine cells' y += A x on plain local arrays, with double and with float vectors (the
     // single-precision V-cycle's, -gmg_backend host_loop -gmg_precision single): the same
-    // cells and arithmetic, only the vectors' bytes differ.
+    // cells, in double and in float arithmetic (FineCellOpsSingle).
     double t_fine_vectors[2];
     {
       const assembly::FineCells fine(model.layout, model.cells, w, true);

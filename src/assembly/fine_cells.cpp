@@ -21,7 +21,8 @@ FineCells::FineCells(const topology::DofLayout& layout, const CellData& cells,
     if (own_[e] >= 0)
       element::cell_stiffness(element::reference_matrices(), cells.h, cells.lambda[e],
                               cells.mu[e], &own_stiffness_[576 * std::size_t(own_[e])]);
-  // The float copies (a few KB): per kind, and the reference matrices for the cells without
+  // The float copies (2.3 KB per kind, 6.9 KB of reference): per kind, and the reference
+  // matrices for the cells without
   // a kind (float arithmetic forms their stiffness from these, not from own_stiffness_).
   for (const auto& K : cells.kind_stiffness)
     kind_single_.insert(kind_single_.end(), K.begin(), K.end());

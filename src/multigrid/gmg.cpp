@@ -676,7 +676,7 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
     a.view.postsmooth = gs ? opt_.postsmooth : degree(l, opt_.postsmooth);
     a.view.gauss_seidel = gs;
     a.view.omega = opt_.omega;
-    for (int k = 0; k < 8; ++k) {
+    for (int k = 0; k < 8 && gs; ++k) {
       const auto& list = data_[l]->colour_list[k];
       a.colour_copy.insert(a.colour_copy.end(), list.begin(), list.end());
       a.view.colour_begin[k + 1] = std::int64_t(a.colour_copy.size());

@@ -89,32 +89,34 @@ HostLoopCycleOf<S>::~HostLoopCycleOf() {
   for (auto& sf : ghosts_) PetscSFDestroy(&sf);
 }
 
+// exchange, accumulate and solve_coarsest are collective: after an error every rank still makes
+// each call (keeping only the first error for apply()), so that no rank waits on one that
+// stopped.
 template <class S>
 void HostLoopCycleOf<S>::exchange(int l, S* x) {
   PetscSF sf = ghosts_[std::size_t(l)];
-  if (!sf || error_) return;
-  error_ = PetscSFBcastBegin(sf, mpi_type<S>(), x, x, MPI_REPLACE);
-  if (!error_) error_ = PetscSFBcastEnd(sf, mpi_type<S>(), x, x, MPI_REPLACE);
+  if (!sf) return;
+  keep(PetscSFBcastBegin(sf, mpi_type<S>(), x, x, MPI_REPLACE));
+  keep(PetscSFBcastEnd(sf, mpi_type<S>(), x, x, MPI_REPLACE));
 }
 
 template <class S>
 void HostLoopCycleOf<S>::accumulate(int l, S* y) {
   PetscSF sf = ghosts_[std::size_t(l)];
-  if (!sf || error_) return;
-  error_ = PetscSFReduceBegin(sf, mpi_type<S>(), y, y, MPI_SUM);
-  if (!error_) error_ = PetscSFReduceEnd(sf, mpi_type<S>(), y, y, MPI_SUM);
+  if (!sf) return;
+  keep(PetscSFReduceBegin(sf, mpi_type<S>(), y, y, MPI_SUM));
+  keep(PetscSFReduceEnd(sf, mpi_type<S>(), y, y, MPI_SUM));
 }
 
 template <class S>
 void HostLoopCycleOf<S>::solve_coarsest(const S* b, S* x) {
-  if (error_) return;
   if constexpr (std::is_same_v<S, double>) {
-    error_ = mg_.solve_coarsest(b, x);
+    keep(mg_.solve_coarsest(b, x));
   } else {
     // The factorization is double's: the coarsest level's vectors (a few thousand DOFs) pass
     // through double arrays.
     std::copy(b, b + coarse_b_.size(), coarse_b_.begin());
-    error_ = mg_.solve_coarsest(coarse_b_.data(), coarse_x_.data());
+    keep(mg_.solve_coarsest(coarse_b_.data(), coarse_x_.data()));
     std::copy(coarse_x_.begin(), coarse_x_.end(), x);
   }
 }

@@ -77,6 +77,9 @@ class HostLoopCycleOf : public CycleBackend {
   // The first PETSc error of solve_coarsest, exchange or accumulate (the executor interface
   // has no error channel), returned by apply().
   PetscErrorCode error_ = 0;
+  void keep(PetscErrorCode e) {
+    if (!error_) error_ = e;
+  }
 };
 
 using HostLoopCycle = HostLoopCycleOf<double>;

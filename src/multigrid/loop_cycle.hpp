@@ -100,7 +100,8 @@ LoopLevelData<V> level_data(const LoopLevel& L) {
 }
 
 /// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
-/// diagonal blocks stay the Multigrid's (diag_inv points into it).
+/// diagonal blocks stay the Multigrid's (diag_inv points into it; a float executor holds float
+/// copies instead and nulls it).
 struct LoopLevelArrays {
   LoopLevelArrays() = default;
   // `view` points into the vectors: a move keeps their buffers, a copy would not.
