@@ -279,6 +279,17 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::vector<std::unique_ptr<DeviceStoredCells>> stored;  // per level (null on 0 and the last)
   std::vector<std::array<S*, 4>> work;                     // b, x, r, dir per level
   std::vector<const int*> positions;                       // per level: 3 per cell (GS)
+  // Per level on more ranks: the halo's send copies and packed values on the device, and the
+  // host buffers the MPI exchange works on (DeviceHaloExchange).
+  struct Halo {
+    bool on = false;
+    std::int64_t num_send = 0, num_ghosts = 0;
+    const std::int32_t* send = nullptr;
+    S* packed = nullptr;
+    std::vector<S> host_packed, host_ghosts;
+  };
+  std::vector<Halo> halos;
+  DeviceHaloExchange halo_exchange;
   int gamma_ = 1;
   std::function<void(const double*, double*)> coarse;
   std::vector<S> coarse_s;                 // the coarsest level's b, then x, as on the device
@@ -286,7 +297,7 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
   std::vector<S> host_b;                   // level 0's b (float: b rounded once on entry)
 
   Of(const std::vector<DeviceCycleLevel>& levels, int gamma,
-     std::function<void(const double* b, double* x)> solve_coarsest);
+     std::function<void(const double* b, double* x)> solve_coarsest, DeviceHaloExchange halo);
 
   /// upload() into a new slot of `owner`.
   template <class T>
@@ -325,9 +336,32 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
     else
       stored[l]->apply_add_colour(positions[l], k, xd, yd);
   }
-  // One rank (MultigridDeviceCycle refuses more): no ghosts to exchange.
-  void exchange(int, S*) {}
-  void accumulate(int, S*) {}
+  // The ghost exchange (multigrid/halo.hpp's plan): the send copies packed on the device, the
+  // packed values and the ghost region across PCIe, the MPI part on the host.
+  void exchange(int l, S* xd) {
+    Halo& h = halos[l];
+    if (!h.on) return;
+    launch_index(h.num_send, multigrid::PackCopies<S>{h.send, xd, h.packed});
+    check(cudaMemcpy(h.host_packed.data(), h.packed, 3 * h.num_send * sizeof(S),
+                     cudaMemcpyDeviceToHost),
+          "cudaMemcpy to host");
+    halo_exchange.broadcast(l, h.host_packed.data(), h.host_ghosts.data());
+    check(cudaMemcpy(xd + 3 * levels[l].num_copies, h.host_ghosts.data(),
+                     3 * h.num_ghosts * sizeof(S), cudaMemcpyHostToDevice),
+          "cudaMemcpy to device");
+  }
+  void accumulate(int l, S* yd) {
+    Halo& h = halos[l];
+    if (!h.on) return;
+    check(cudaMemcpy(h.host_ghosts.data(), yd + 3 * levels[l].num_copies,
+                     3 * h.num_ghosts * sizeof(S), cudaMemcpyDeviceToHost),
+          "cudaMemcpy to host");
+    halo_exchange.reduce(l, h.host_ghosts.data(), h.host_packed.data());
+    check(cudaMemcpy(h.packed, h.host_packed.data(), 3 * h.num_send * sizeof(S),
+                     cudaMemcpyHostToDevice),
+          "cudaMemcpy to device");
+    launch_index(h.num_send, multigrid::AddCopies<S>{h.send, h.packed, yd});
+  }
   void solve_coarsest(const S* bd, S* xd) {
     const auto n = coarse_s.size();
     check(cudaMemcpy(coarse_s.data(), bd, n * sizeof(S), cudaMemcpyDeviceToHost),
@@ -361,10 +395,13 @@ struct DeviceCycle::Executor::Of final : DeviceCycle::Executor {
 
 template <class S>
 DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int gamma,
-                                 std::function<void(const double* b, double* x)> solve_coarsest) {
+                                 std::function<void(const double* b, double* x)> solve_coarsest,
+                                 DeviceHaloExchange halo) {
   const int L = int(in.size());
   gamma_ = gamma;
   coarse = std::move(solve_coarsest);
+  halo_exchange = std::move(halo);
+  halos.resize(L);
   levels.resize(L);
   cells.resize(L);
   stored.resize(L);
@@ -413,6 +450,18 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
             std::make_unique<DeviceStoredCells>(in[l].packed_double, in[l].packed_single, cells[l]);
     }
     for (auto& w : work[l]) w = zeros(3 * std::size_t(h.num_local));
+    if (in[l].halo) {
+      if (!halo_exchange.broadcast || !halo_exchange.reduce)
+        throw std::runtime_error("DeviceCycle: a level with a halo, and no exchange given");
+      Halo& g = halos[l];
+      g.on = true;
+      g.num_send = in[l].halo_num_send;
+      g.num_ghosts = h.num_local - h.num_copies;
+      g.send = up(&ints, in[l].halo_send, std::size_t(g.num_send));
+      g.packed = zeros(3 * std::size_t(g.num_send));
+      g.host_packed.assign(3 * std::size_t(g.num_send), S(0));
+      g.host_ghosts.assign(3 * std::size_t(g.num_ghosts), S(0));
+    }
   }
   const auto nc = 3 * std::size_t(in[L - 1].loop.num_copies);
   coarse_s.assign(nc, S(0));
@@ -422,14 +471,17 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
 }
 
 DeviceCycle::DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma, bool single,
-                         std::function<void(const double* b, double* x)> solve_coarsest) {
+                         std::function<void(const double* b, double* x)> solve_coarsest,
+                         DeviceHaloExchange halo) {
   const int L = int(levels.size());
   if (L < 1 || (L > 1 && !levels[0].fine))
     throw std::runtime_error("DeviceCycle: needs a level, and fine cells on level 0 above others");
   if (single)
-    ex_ = std::make_unique<Executor::Of<float>>(levels, gamma, std::move(solve_coarsest));
+    ex_ = std::make_unique<Executor::Of<float>>(levels, gamma, std::move(solve_coarsest),
+                                                std::move(halo));
   else
-    ex_ = std::make_unique<Executor::Of<double>>(levels, gamma, std::move(solve_coarsest));
+    ex_ = std::make_unique<Executor::Of<double>>(levels, gamma, std::move(solve_coarsest),
+                                                 std::move(halo));
 }
 
 DeviceCycle::~DeviceCycle() = default;
@@ -493,6 +545,15 @@ DeviceTiming time_fine_apply(const assembly::FineCellData& d, const FineTables& 
   });
   t.copy_bandwidth = 2.0 * double(n * sizeof(double)) / s;
   return t;
+}
+
+int select_device(int node_rank) {
+  int n = 0;
+  check(cudaGetDeviceCount(&n), "cudaGetDeviceCount");
+  if (n == 0) throw std::runtime_error("no CUDA device");
+  const int device = node_rank % n;
+  check(cudaSetDevice(device), "cudaSetDevice");
+  return device;
 }
 
 int device_count(std::string* why) {

@@ -14,6 +14,7 @@
 #include "backend/loop.hpp"
 #include "device_kernels.hpp"
 #include "multigrid/gmg.hpp"
+#include "multigrid/halo.hpp"
 #include "multigrid/stored_cells.hpp"
 
 namespace hexcut::cuda {
@@ -69,9 +70,11 @@ inline void fine_apply_add(const assembly::FineCells& A, const backend::CellColo
   fine_apply_add(A.data(), tables, cells, x, y);
 }
 
-/// -gmg_backend cuda (multigrid::Backend::cuda): the cycle of a Multigrid on device 0
-/// (DeviceCycle over Multigrid::loop_levels), made after each of its update()s; with
-/// -gmg_precision single its vectors are float (the single-precision V-cycle).
+/// -gmg_backend cuda (multigrid::Backend::cuda): the cycle of a Multigrid on this rank's device
+/// (select_device: node rank mod the node's devices; DeviceCycle over Multigrid::loop_levels),
+/// made after each of its update()s; with -gmg_precision single its vectors are float (the
+/// single-precision V-cycle). On more ranks each level's ghosts go through its LevelHalo: the
+/// packed send copies and the ghost region are copied to the host and exchanged there.
 class MultigridDeviceCycle : public multigrid::CycleBackend {
  public:
   /// Errors: those of Multigrid::loop_levels (PETSC_ERR_SUP with the reason where the loop-
@@ -80,19 +83,28 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
   static PetscErrorCode create(multigrid::Multigrid& mg,
                                std::unique_ptr<multigrid::CycleBackend>* out) {
     PetscFunctionBeginUser;
-    PetscMPIInt ranks;
-    PetscCallMPI(MPI_Comm_size(mg.comm(), &ranks));
-    PetscCheck(ranks == 1, mg.comm(), PETSC_ERR_SUP,
-               "-gmg_backend cuda: one MPI rank only (the device cycle has no halo exchange yet)");
     std::unique_ptr<MultigridDeviceCycle> c(new MultigridDeviceCycle(mg));
     PetscCall(mg.loop_levels(&c->arrays_));
+    const int L = mg.num_levels();
+    c->halos_.resize(L);
+    for (int l = 0; l < L; ++l)
+      PetscCall(multigrid::LevelHalo::create(mg.comm(), c->arrays_[l], &c->halos_[l]));
+    MPI_Comm node;
+    PetscCallMPI(MPI_Comm_split_type(mg.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node));
+    PetscMPIInt node_rank;
+    PetscCallMPI(MPI_Comm_rank(node, &node_rank));
+    PetscCallMPI(MPI_Comm_free(&node));
     try {  // the uploads and host containers below throw; PETSc errors stay codes
-      const int L = mg.num_levels();
+      select_device(node_rank);
       std::vector<DeviceCycleLevel> levels(L);
       c->colours_.resize(L);
       for (int l = 0; l < L; ++l) {
         auto& d = levels[l];
         d.loop = c->arrays_[l].view;
+        const auto& h = *c->halos_[l];
+        d.halo = !h.empty();
+        d.halo_send = h.send().data();
+        d.halo_num_send = std::int64_t(h.send().size());
         if (l + 1 == L) continue;  // the coarsest level is solved on the host
         c->colours_[l] = backend::colour_cells(mg.cell_positions(l));
         d.position = mg.cell_positions(l).empty() ? nullptr : mg.cell_positions(l)[0].data();
@@ -110,12 +122,26 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
         }
       }
       auto* self = c.get();
+      const bool single = mg.precision() == multigrid::Precision::single;
+      // The halo's MPI part. Collective: after an error every rank still takes part (the first
+      // error is kept for apply()), so that no rank waits on one that stopped.
+      DeviceHaloExchange halo;
+      halo.broadcast = [self, single](int l, const void* packed, void* ghosts) {
+        const auto& h = *self->halos_[std::size_t(l)];
+        self->keep(
+            single ? h.broadcast(static_cast<const float*>(packed), static_cast<float*>(ghosts))
+                   : h.broadcast(static_cast<const double*>(packed), static_cast<double*>(ghosts)));
+      };
+      halo.reduce = [self, single](int l, const void* ghosts, void* packed) {
+        const auto& h = *self->halos_[std::size_t(l)];
+        self->keep(
+            single ? h.reduce(static_cast<const float*>(ghosts), static_cast<float*>(packed))
+                   : h.reduce(static_cast<const double*>(ghosts), static_cast<double*>(packed)));
+      };
       c->cycle_ = std::make_unique<DeviceCycle>(
-          levels, mg.cycle_gamma(), mg.precision() == multigrid::Precision::single,
-          [self](const double* b, double* x) {
-            self->coarse_error_ = self->mg_.solve_coarsest(b, x);
-            if (self->coarse_error_) throw std::runtime_error("coarsest solve");
-          });
+          levels, mg.cycle_gamma(), single,
+          [self](const double* b, double* x) { self->keep(self->mg_.solve_coarsest(b, x)); },
+          std::move(halo));
     } catch (const std::exception& e) {
       SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "-gmg_backend cuda: %s", e.what());
     }
@@ -124,13 +150,13 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
   }
   PetscErrorCode apply(const double* b, double* x) override {
     PetscFunctionBeginUser;
-    coarse_error_ = 0;
+    error_ = 0;
     try {
       cycle_->apply(b, x);
     } catch (const std::exception& e) {
-      PetscCall(coarse_error_);
       SETERRQ(PETSC_COMM_SELF, PETSC_ERR_LIB, "-gmg_backend cuda: %s", e.what());
     }
+    PetscCall(error_);
     PetscFunctionReturn(0);
   }
   /// Median seconds of `repeat` device cycles (DeviceCycle::time_cycle).
@@ -142,8 +168,13 @@ class MultigridDeviceCycle : public multigrid::CycleBackend {
   std::vector<multigrid::LoopLevelArrays> arrays_;
   std::vector<backend::CellColours> colours_;
   assembly::FineCellData fine_data_;
+  std::vector<std::unique_ptr<multigrid::LevelHalo>> halos_;
   std::unique_ptr<DeviceCycle> cycle_;
-  PetscErrorCode coarse_error_ = 0;
+  // The first PETSc error of the coarsest solve or a halo exchange during apply().
+  PetscErrorCode error_ = 0;
+  void keep(PetscErrorCode e) {
+    if (!error_) error_ = e;
+  }
 };
 
 /// The factory hexcut installs with multigrid::set_device_cycle_factory (with device_count).

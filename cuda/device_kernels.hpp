@@ -18,6 +18,11 @@ namespace hexcut::cuda {
 /// runtime's reason in *why (may be null).
 int device_count(std::string* why);
 
+/// Makes device (node_rank mod device_count) this process's device: one GPU per MPI rank on a
+/// node with as many GPUs as ranks, ranks sharing them round-robin otherwise. Returns the device
+/// number; throws std::runtime_error with the CUDA runtime's message when that fails.
+int select_device(int node_rank);
+
 /// The cells and colours of one level, as plain arrays (host memory).
 struct CellArrays {
   std::int64_t num_cells = 0;
@@ -68,11 +73,28 @@ struct DeviceCycleLevel {
   const double* packed_double = nullptr;
   const float* packed_single = nullptr;
   const int* position = nullptr;  // 3 per cell: lattice or level position (Gauss-Seidel)
+  // On more ranks, the level's halo (multigrid::LevelHalo): whether any rank has ghosts here
+  // (then every rank takes part in each exchange), its send copies (host memory) and its ghost
+  // copies (loop.num_local - loop.num_copies of them, the vectors' contiguous tail).
+  bool halo = false;
+  const std::int32_t* halo_send = nullptr;
+  std::int64_t halo_num_send = 0;
+};
+
+/// The MPI side of the device cycle's ghost exchange, on host buffers (multigrid::LevelHalo):
+/// broadcast(l, packed, ghosts) sets the ghosts' values (3 per ghost copy) to their owners'
+/// packed ones (3 per send copy); reduce(l, ghosts, packed) sets packed to the sum of the
+/// ghosts' values over the ranks that hold them. The values are the cycle's type (double, or
+/// float with `single`). Collective over the ranks; unused (may be empty) on one rank.
+struct DeviceHaloExchange {
+  std::function<void(int l, const void* packed, void* ghosts)> broadcast;
+  std::function<void(int l, const void* ghosts, void* packed)> reduce;
 };
 
 /// The multigrid cycle (multigrid::loop::cycle_level, the host's algorithm and bodies) with
-/// every level resident on device 0: smoothing, residuals and transfers on the device, the
-/// coarsest level solved by `solve_coarsest` on the host (b copied down, x copied up: the
+/// every level resident on this process's device (device 0 unless select_device chose
+/// another): smoothing, residuals and transfers on the device, the coarsest level solved by
+/// `solve_coarsest` on the host (b copied down, x copied up: the
 /// coarsest level is small, and the host's sparse factorization is what the host cycle uses
 /// too). Built once per set-up (uploads everything); each apply copies b in and x out.
 /// `single`: every level's work vectors in float (the single-precision V-cycle of mixed
@@ -83,7 +105,8 @@ struct DeviceCycleLevel {
 class DeviceCycle {
  public:
   DeviceCycle(const std::vector<DeviceCycleLevel>& levels, int gamma, bool single,
-              std::function<void(const double* b, double* x)> solve_coarsest);
+              std::function<void(const double* b, double* x)> solve_coarsest,
+              DeviceHaloExchange halo = {});
   ~DeviceCycle();
   DeviceCycle(const DeviceCycle&) = delete;
   DeviceCycle& operator=(const DeviceCycle&) = delete;

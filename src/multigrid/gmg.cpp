@@ -46,9 +46,8 @@ CycleBackendFactory device_cycle_factory() {
 }
 
 const char* loop_cycle_refusal(const Options& o, int ranks) {
-  // The host executor exchanges ghosts through MPI; the device executor has no halo yet.
-  return ranks > 1 && o.backend == Backend::cuda      ? "more than one MPI rank"
-         : o.first_level > 0                          ? "composite elements"
+  (void)ranks;  // both executors exchange ghosts on any number of ranks (multigrid/halo.hpp)
+  return o.first_level > 0                            ? "composite elements"
          : o.interpolation == Interpolation::smoothed ? "-gmg_interpolation smoothed"
          : o.schwarz_from >= 0                        ? "-gmg_schwarz_from"
                                                       : nullptr;

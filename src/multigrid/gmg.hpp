@@ -50,8 +50,7 @@ struct Options;
 /// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
 /// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi or coloured block
 /// Gauss-Seidel, trilinear or energy-minimizing interpolation,
-/// fine hexahedra (no composite elements), on any number of ranks on the host and on one rank
-/// with Backend::cuda.
+/// fine hexahedra (no composite elements), on any number of ranks (`ranks` is not a limit).
 const char* loop_cycle_refusal(const Options& o, int ranks);
 
 /// A cycle run elsewhere than on PETSc vectors (Backend::host_loop, Backend::cuda): x = M^-1 b
@@ -274,7 +273,7 @@ class Multigrid {
   /// transfer reaches beyond those; LoopLevelArrays::ghost_rank/ghost_index connect the ghosts
   /// to their owners). Refused (PETSC_ERR_SUP, with the reason) where that cycle is not the one
   /// cycle() runs: composite elements, Schwarz patches, smoothed interpolation, an assembled
-  /// level (and -gmg_backend cuda on more than one rank).
+  /// level.
   PetscErrorCode loop_levels(std::vector<LoopLevelArrays>* out) const;
   /// Options::cycle_gamma: 1 V-cycle, 2 W-cycle.
   int cycle_gamma() const { return opt_.cycle_gamma; }

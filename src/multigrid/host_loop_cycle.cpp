@@ -4,40 +4,6 @@
 
 namespace hexcut::multigrid {
 
-namespace {
-
-template <class S>
-MPI_Datatype mpi_type() {
-  return std::is_same_v<S, double> ? MPI_DOUBLE : MPI_FLOAT;
-}
-
-/// The star forest of one level's ghosts (null without ghosts on any rank): leaves the 3 DOFs
-/// of each ghost copy (local entries from 3 num_copies on), roots its owner's 3 DOFs.
-PetscErrorCode ghost_sf(MPI_Comm comm, const LoopLevelArrays& a, PetscSF* sf) {
-  PetscFunctionBeginUser;
-  *sf = nullptr;
-  const auto n = std::int64_t(a.ghost_rank.size());
-  std::int64_t any = n;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT64_T, MPI_MAX, comm));
-  if (any == 0) PetscFunctionReturn(0);
-  std::vector<PetscInt> leaf(std::size_t(3 * n));
-  std::vector<PetscSFNode> root(std::size_t(3 * n));
-  for (std::int64_t g = 0; g < n; ++g)
-    for (int c = 0; c < 3; ++c) {
-      const auto k = std::size_t(3 * g + c);
-      leaf[k] = PetscInt(3 * (a.view.num_copies + g) + c);
-      root[k].rank = a.ghost_rank[std::size_t(g)];
-      root[k].index = PetscInt(3 * std::int64_t(a.ghost_index[std::size_t(g)]) + c);
-    }
-  PetscCall(PetscSFCreate(comm, sf));
-  PetscCall(PetscSFSetGraph(*sf, PetscInt(3 * a.view.num_copies), PetscInt(3 * n), leaf.data(),
-                            PETSC_COPY_VALUES, root.data(), PETSC_COPY_VALUES));
-  PetscCall(PetscSFSetUp(*sf));
-  PetscFunctionReturn(0);
-}
-
-}  // namespace
-
 template <class S>
 PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out) {
   PetscFunctionBeginUser;
@@ -45,10 +11,12 @@ PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoo
   PetscCall(mg.loop_levels(&c->levels_));
   const auto L = c->levels_.size();
   c->work_.resize(L);
-  c->ghosts_.assign(L, nullptr);
+  c->halos_.resize(L);
+  c->packed_.resize(L);
   for (std::size_t l = 0; l < L; ++l) {
     for (auto& v : c->work_[l]) v.assign(3 * std::size_t(c->levels_[l].view.num_local), S(0));
-    PetscCall(ghost_sf(mg.comm(), c->levels_[l], &c->ghosts_[l]));
+    PetscCall(LevelHalo::create(mg.comm(), c->levels_[l], &c->halos_[l]));
+    c->packed_[l].assign(3 * c->halos_[l]->send().size(), S(0));
   }
   if constexpr (std::is_same_v<S, float>) {
     const auto n = 3 * std::size_t(c->levels_.back().view.num_copies);
@@ -84,28 +52,25 @@ PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoo
   PetscFunctionReturn(0);
 }
 
-template <class S>
-HostLoopCycleOf<S>::~HostLoopCycleOf() {
-  for (auto& sf : ghosts_) PetscSFDestroy(&sf);
-}
-
 // exchange, accumulate and solve_coarsest are collective: after an error every rank still makes
 // each call (keeping only the first error for apply()), so that no rank waits on one that
 // stopped.
 template <class S>
 void HostLoopCycleOf<S>::exchange(int l, S* x) {
-  PetscSF sf = ghosts_[std::size_t(l)];
-  if (!sf) return;
-  keep(PetscSFBcastBegin(sf, mpi_type<S>(), x, x, MPI_REPLACE));
-  keep(PetscSFBcastEnd(sf, mpi_type<S>(), x, x, MPI_REPLACE));
+  const LevelHalo& h = *halos_[std::size_t(l)];
+  if (h.empty()) return;
+  S* buf = packed_[std::size_t(l)].data();
+  backend::for_each(std::int64_t(h.send().size()), PackCopies<S>{h.send().data(), x, buf});
+  keep(h.broadcast(buf, x + 3 * levels_[std::size_t(l)].view.num_copies));
 }
 
 template <class S>
 void HostLoopCycleOf<S>::accumulate(int l, S* y) {
-  PetscSF sf = ghosts_[std::size_t(l)];
-  if (!sf) return;
-  keep(PetscSFReduceBegin(sf, mpi_type<S>(), y, y, MPI_SUM));
-  keep(PetscSFReduceEnd(sf, mpi_type<S>(), y, y, MPI_SUM));
+  const LevelHalo& h = *halos_[std::size_t(l)];
+  if (h.empty()) return;
+  S* buf = packed_[std::size_t(l)].data();
+  keep(h.reduce(y + 3 * levels_[std::size_t(l)].view.num_copies, buf));
+  backend::for_each(std::int64_t(h.send().size()), AddCopies<S>{h.send().data(), buf, y});
 }
 
 template <class S>

@@ -10,12 +10,12 @@
 // every level's work vectors in float, the outer CG in double.
 //
 // On more ranks each level's vectors hold the rank's owned copies and its ghosts
-// (LoopLevel::num_local), and exchange()/accumulate() are a star forest per level (PetscSF on
-// the arrays themselves, 3 values per ghost: broadcast from the owners, reduced into them), so
-// the cycle is Multigrid::cycle's on any number of ranks.
+// (LoopLevel::num_local), and exchange()/accumulate() are each level's LevelHalo
+// (multigrid/halo.hpp: the owners' send copies packed, a star forest between the packed
+// buffers and the ghost region), the plan the device executor runs too, so the cycle is
+// Multigrid::cycle's on any number of ranks.
 #pragma once
 
-#include <petscsf.h>
 #include <petscsys.h>
 
 #include <array>
@@ -24,6 +24,7 @@
 
 #include "backend/loop.hpp"
 #include "multigrid/gmg.hpp"
+#include "multigrid/halo.hpp"
 #include "multigrid/loop_cycle.hpp"
 
 namespace hexcut::multigrid {
@@ -36,7 +37,6 @@ class HostLoopCycleOf : public CycleBackend {
   /// The cycle of `mg` (after its update(); it must outlive this). Errors: those of
   /// Multigrid::loop_levels (PETSC_ERR_SUP where the loop-layer cycle does not apply).
   static PetscErrorCode create(Multigrid& mg, std::unique_ptr<HostLoopCycleOf>* out);
-  ~HostLoopCycleOf() override;
   HostLoopCycleOf(const HostLoopCycleOf&) = delete;
   HostLoopCycleOf& operator=(const HostLoopCycleOf&) = delete;
 
@@ -73,7 +73,8 @@ class HostLoopCycleOf : public CycleBackend {
   // float: each level's data in float (LoopLevel's twins: diagonal blocks, mask, prolongation
   // and restriction weights); the double copies are released.
   std::vector<std::array<std::vector<float>, 6>> single_;  // + prolong, restrict blocks
-  std::vector<PetscSF> ghosts_;  // per level: roots the owned DOFs, leaves the ghost DOFs
+  std::vector<std::unique_ptr<LevelHalo>> halos_;          // per level
+  std::vector<std::vector<S>> packed_;                     // per level: 3 per send copy
   // The first PETSc error of solve_coarsest, exchange or accumulate (the executor interface
   // has no error channel), returned by apply().
   PetscErrorCode error_ = 0;

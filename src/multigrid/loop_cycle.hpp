@@ -133,6 +133,29 @@ struct Zero {
   }
 };
 
+/// buf[3k..3k+2] = x at copy[k]: a halo's send copies packed (multigrid/halo.hpp).
+template <class V>
+struct PackCopies {
+  const std::int32_t* copy;
+  const V* x;
+  V* buf;
+  HEXCUT_HD void operator()(std::int32_t k) const {
+    for (int c = 0; c < 3; ++c) buf[3 * std::int64_t(k) + c] = x[3 * std::int64_t(copy[k]) + c];
+  }
+};
+
+/// y at copy[k] += buf[3k..3k+2]: the ghosts' summed values into their owners (the copies are
+/// distinct, so no two threads add into one entry).
+template <class V>
+struct AddCopies {
+  const std::int32_t* copy;
+  const V* buf;
+  V* y;
+  HEXCUT_HD void operator()(std::int32_t k) const {
+    for (int c = 0; c < 3; ++c) y[3 * std::int64_t(copy[k]) + c] += buf[3 * std::int64_t(k) + c];
+  }
+};
+
 /// y = 0 at the listed copies.
 template <class V>
 struct ZeroAt {

@@ -230,7 +230,7 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsEList(
       "-gmg_backend",
       "Where the cycle runs: host (PETSc vectors, every option, any ranks), host_loop (the "
-      "CUDA backend's loop-layer cycle on the host, any ranks), cuda (device 0; one rank); "
+      "CUDA backend's loop-layer cycle on the host), cuda (a GPU per rank); "
       "host_loop and cuda: Chebyshev or Gauss-Seidel, trilinear or energy, no composite elements",
       "", backends, 3, backends[choice], &choice, &set));
   if (set) o.backend = Backend(choice);
