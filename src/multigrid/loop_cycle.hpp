@@ -243,8 +243,9 @@ struct AddTo {
 };
 
 /// b_C = sum over the fine copies f of C of w_fC r_f (the transpose of the prolongation), per
-/// coarse copy C.
-template <class V>
+/// coarse copy C. Block (energy rows): 9 weights per entry, the 3x3 block B_fC (row-major),
+/// and b_C = sum of B_fC^T r_f.
+template <class V, bool Block = false>
 struct Restrict {
   const std::int32_t* offset;
   const std::int32_t* fine;
@@ -253,34 +254,24 @@ struct Restrict {
   V* b;
   HEXCUT_HD void operator()(std::int32_t C) const {
     double s[3] = {0.0, 0.0, 0.0};
-    for (auto k = offset[C]; k < offset[C + 1]; ++k)
-      for (int c = 0; c < 3; ++c) s[c] += double(weight[k]) * r[3 * std::int64_t(fine[k]) + c];
-    for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = V(s[c]);
-  }
-};
-
-/// Restrict with 3x3 blocks (energy rows): b_C = sum over f of B_fC^T r_f.
-template <class V>
-struct RestrictBlock {
-  const std::int32_t* offset;
-  const std::int32_t* fine;
-  const V* block;  // 9 per entry, row-major B_fC
-  const V* r;
-  V* b;
-  HEXCUT_HD void operator()(std::int32_t C) const {
-    double s[3] = {0.0, 0.0, 0.0};
     for (auto k = offset[C]; k < offset[C + 1]; ++k) {
-      const V* B = block + 9 * std::int64_t(k);
       const V* rf = r + 3 * std::int64_t(fine[k]);
-      for (int c = 0; c < 3; ++c)
-        s[c] += double(B[c]) * rf[0] + double(B[3 + c]) * rf[1] + double(B[6 + c]) * rf[2];
+      if constexpr (Block) {
+        const V* B = weight + 9 * std::int64_t(k);
+        for (int c = 0; c < 3; ++c)
+          s[c] += double(B[c]) * rf[0] + double(B[3 + c]) * rf[1] + double(B[6 + c]) * rf[2];
+      } else {
+        for (int c = 0; c < 3; ++c) s[c] += double(weight[k]) * rf[c];
+      }
     }
     for (int c = 0; c < 3; ++c) b[3 * std::int64_t(C) + c] = V(s[c]);
   }
 };
 
-/// x_f += mask_f sum_j w_fj x_C(j), per fine copy f (the coarse correction).
-template <class V>
+/// x_f += mask_f sum_j w_fj x_C(j), per fine copy f (the coarse correction). Block (energy
+/// rows): 72 weights per fine copy, its 8 3x3 blocks B_fj (row-major), and x_f += mask_f sum
+/// B_fj x_C(j).
+template <class V, bool Block = false>
 struct ProlongAdd {
   const std::int32_t* coarse;
   const V* weight;
@@ -292,35 +283,19 @@ struct ProlongAdd {
     for (int j = 0; j < 8; ++j) {
       const auto C = coarse[8 * std::int64_t(f) + j];
       if (C < 0) break;
-      const double w = weight[8 * std::int64_t(f) + j];
-      for (int c = 0; c < 3; ++c) s[c] += w * xc[3 * std::int64_t(C) + c];
+      const V* xj = xc + 3 * std::int64_t(C);
+      if constexpr (Block) {
+        const V* B = weight + 72 * std::int64_t(f) + 9 * j;
+        for (int c = 0; c < 3; ++c)
+          s[c] += double(B[3 * c]) * xj[0] + double(B[3 * c + 1]) * xj[1] +
+                  double(B[3 * c + 2]) * xj[2];
+      } else {
+        const double w = weight[8 * std::int64_t(f) + j];
+        for (int c = 0; c < 3; ++c) s[c] += w * xj[c];
+      }
     }
     for (int c = 0; c < 3; ++c)
       x[3 * std::int64_t(f) + c] += V(mask[3 * std::int64_t(f) + c] * s[c]);
-  }
-};
-
-/// ProlongAdd with 3x3 blocks (energy rows): x_f += mask_f sum_j B_fj x_C(j).
-template <class V>
-struct ProlongAddBlock {
-  const std::int32_t* coarse;
-  const V* block;  // 72 per fine copy
-  const V* mask;
-  const V* xc;
-  V* x;
-  HEXCUT_HD void operator()(std::int32_t f) const {
-    double s[3] = {0.0, 0.0, 0.0};
-    for (int j = 0; j < 8; ++j) {
-      const auto C = coarse[8 * std::int64_t(f) + j];
-      if (C < 0) break;
-      const V* B = block + 72 * std::int64_t(f) + 9 * j;
-      const V* xj = xc + 3 * std::int64_t(C);
-      for (int c = 0; c < 3; ++c)
-        s[c] +=
-            double(B[3 * c]) * xj[0] + double(B[3 * c + 1]) * xj[1] + double(B[3 * c + 2]) * xj[2];
-    }
-    for (int c = 0; c < 3; ++c)
-      x[3 * std::int64_t(f) + c] += V(double(mask[3 * std::int64_t(f) + c]) * s[c]);
   }
 };
 
@@ -412,8 +387,8 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
   // included, and the ghosts' partial sums go to their owners.
   if (data.restrict_block)
-    ex.for_each(L.num_coarse, RestrictBlock<V>{L.restrict_offset, L.restrict_fine,
-                                               data.restrict_block, r, ex.b(l + 1)});
+    ex.for_each(L.num_coarse, Restrict<V, true>{L.restrict_offset, L.restrict_fine,
+                                                data.restrict_block, r, ex.b(l + 1)});
   else
     ex.for_each(L.num_coarse, Restrict<V>{L.restrict_offset, L.restrict_fine, data.restrict_weight,
                                           r, ex.b(l + 1)});
@@ -422,8 +397,8 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
   ex.exchange(l + 1, ex.x(l + 1));
   if (data.prolong_block)
-    ex.for_each(L.num_copies, ProlongAddBlock<V>{L.prolong_coarse, data.prolong_block, data.mask,
-                                                 ex.x(l + 1), x});
+    ex.for_each(L.num_copies, ProlongAdd<V, true>{L.prolong_coarse, data.prolong_block, data.mask,
+                                                  ex.x(l + 1), x});
   else
     ex.for_each(L.num_copies,
                 ProlongAdd<V>{L.prolong_coarse, data.prolong_weight, data.mask, ex.x(l + 1), x});
