@@ -173,12 +173,11 @@ class DeviceStoredCells {
           backend::CellApplyAdd<multigrid::StoredCellOps, V>{
               {packed_double_, block_of_}, corners_, x, y},
           order_, cells_);
-    else  // float blocks on float vectors: float arithmetic, as the host's StoredCells
-      launch_colours(backend::CellApplyAdd<
-                         multigrid::StoredCellOpsOf<
-                             float, std::conditional_t<std::is_same_v<V, float>, float, double>>,
-                         V>{{packed_single_, block_of_}, corners_, x, y},
-                     order_, cells_);
+    else  // float blocks, double products (as the host's StoredCells, on any vectors)
+      launch_colours(
+          backend::CellApplyAdd<multigrid::StoredCellOpsSingle, V>{
+              {packed_single_, block_of_}, corners_, x, y},
+          order_, cells_);
   }
   /// The rows of the copies of parity colour k only (`position`: the cells' level positions on
   /// the device; no synchronization).

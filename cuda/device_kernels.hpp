@@ -98,7 +98,7 @@ struct DeviceHaloExchange {
 /// coarsest level is small, and the host's sparse factorization is what the host cycle uses
 /// too). Built once per set-up (uploads everything); each apply copies b in and x out.
 /// `single`: every level's work vectors in float (the single-precision V-cycle of mixed
-/// precision, as multigrid::HostLoopCycleSingle on the host: float level data, the cells'
+/// precision, as multigrid::HostLoopCycleSingle on the host: float level data, the fine cells'
 /// products in float, the vector operations in double from float loads with one rounding per
 /// store; b rounded once on entry, the coarsest solve through double arrays).
 /// Throws std::runtime_error with the CUDA runtime's message when a call fails.

@@ -74,8 +74,6 @@ template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOps, float
     be::CellApplyAdd<mg::StoredCellOps, float>, int);
 template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsSingle, float>>(
     be::CellApplyAdd<mg::StoredCellOpsSingle, float>, int);
-template __global__ void check_functor<be::CellApplyAdd<mg::StoredCellOpsFloat, float>>(
-    be::CellApplyAdd<mg::StoredCellOpsFloat, float>, int);
 template __global__ void check_functor<be::CellColourRows<as::FineCellOps, float>>(
     be::CellColourRows<as::FineCellOps, float>, int);
 template __global__ void check_functor<be::CellColourRows<mg::StoredCellOpsSingle, float>>(

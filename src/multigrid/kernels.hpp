@@ -173,22 +173,23 @@ namespace detail {
 // accumulators (the upper triangle) and their dot product with x to y_C (the lower
 // triangle, by symmetry), the diagonal once. C is a template argument so that the
 // lengths are constants: the loops vectorize and the accumulators stay in registers.
-template <int C, class T, class A>
-HEXCUT_HD HEXCUT_INLINE void packed_column(const T* P, const A* x24, A* acc, A* dot) {
+template <int C, class T>
+HEXCUT_HD HEXCUT_INLINE void packed_column(const T* P, const double* x24, double* acc,
+                                           double* dot) {
   const T* col = P + (C * (C + 1)) / 2;
-  const A xc = x24[C];
-  A d = A(0);
+  const double xc = x24[C];
+  double d = 0.0;
   HEXCUT_UNROLL
   for (int r = 0; r < C; ++r) {
-    const A p = A(col[r]);
+    const double p = double(col[r]);
     acc[r] += p * xc;
     d += p * x24[r];
   }
-  dot[C] = d + A(col[C]) * xc;
+  dot[C] = d + double(col[C]) * xc;
 }
 
-template <class T, class A, int... C>
-HEXCUT_HD HEXCUT_INLINE void packed_columns(const T* P, const A* x24, A* acc, A* dot,
+template <class T, int... C>
+HEXCUT_HD HEXCUT_INLINE void packed_columns(const T* P, const double* x24, double* acc, double* dot,
                                             std::integer_sequence<int, C...>) {
   (packed_column<C>(P, x24, acc, dot), ...);
 }
@@ -196,11 +197,10 @@ HEXCUT_HD HEXCUT_INLINE void packed_columns(const T* P, const A* x24, A* acc, A*
 
 /// y24 += P x24 for a packed symmetric matrix: each off-diagonal entry is used twice, once
 /// in its column's multiply-add (upper triangle) and once in its dot product (lower); the
-/// diagonal once. T: the stored type; A: the arithmetic (double; float only for float blocks
-/// on the float V-cycle's vectors).
-template <class T, class A>
-HEXCUT_HD inline void packed_apply_add(const T* P, const A* x24, A* y24) {
-  A acc[24] = {A(0)}, dot[24];
+/// diagonal once.
+template <class T>
+HEXCUT_HD inline void packed_apply_add(const T* P, const double* x24, double* y24) {
+  double acc[24] = {0.0}, dot[24];
   detail::packed_columns(P, x24, acc, dot, std::make_integer_sequence<int, 24>{});
   for (int r = 0; r < 24; ++r) y24[r] += acc[r] + dot[r];
 }

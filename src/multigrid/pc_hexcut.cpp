@@ -217,8 +217,8 @@ PetscErrorCode pc_set_from_options(PC pc, PetscOptionItems* PetscOptionsObject) 
   PetscCall(PetscOptionsEList("-gmg_precision",
                               "Precision of the cycle: double, or single (the coarse levels' "
                               "Galerkin blocks in float, products in double; with -gmg_backend "
-                              "host_loop or cuda also every level's vectors, level data and cell "
-                              "products in float; the outer CG in double)",
+                              "host_loop or cuda also every level's vectors, level data and the "
+                              "fine cells' products in float; the outer CG in double)",
                               "", precisions, 2, precisions[choice], &choice, &set));
   if (set) o.precision = choice == 1 ? Precision::single : Precision::double_;
   PetscCheck(o.interpolation != Interpolation::smoothed || o.smoother == Smoother::chebyshev,

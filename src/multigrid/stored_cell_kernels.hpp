@@ -15,17 +15,14 @@ namespace hexcut::multigrid {
 /// stored type (double, or float for -gmg_precision single). `slot` (may be null: cell e's
 /// block is block e) maps each cell to its block: cells that share one (StoredCells::share)
 /// map to the same.
-/// A: the product's arithmetic (backend::CellArith): double, or float for float blocks on the
-/// float V-cycle's vectors; the row and diagonal blocks are double's.
-template <class T, class A = double>
+template <class T>
 struct StoredCellOpsOf {
-  using Arith = A;
   const T* packed;                     // kPackedSize per block
   const std::int32_t* slot = nullptr;  // per cell: its block, or null
   HEXCUT_HD const T* block(std::int32_t e) const {
     return packed + kPackedSize * std::int64_t(slot ? slot[e] : e);
   }
-  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, A* xe, A* ye) const {
+  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, double* xe, double* ye) const {
     packed_apply_add(block(e), xe, ye);
   }
   HEXCUT_HD void row_block(std::int32_t e, const std::int32_t*, int q, double* xe,
@@ -40,7 +37,6 @@ struct StoredCellOpsOf {
 };
 using StoredCellOps = StoredCellOpsOf<double>;
 using StoredCellOpsSingle = StoredCellOpsOf<float>;
-using StoredCellOpsFloat = StoredCellOpsOf<float, float>;  // float blocks, float arithmetic
 
 /// The product alone (backend::CellApplyAdd) for cells whose block many cells share and is
 /// also held unpacked (StoredCells::num_unpacked): block b's copy is full[576 unpacked[b]..]
@@ -48,14 +44,13 @@ using StoredCellOpsFloat = StoredCellOpsOf<float, float>;  // float blocks, floa
 /// in order, 24 accumulators), which the packed columns cannot match where a block stays in
 /// cache. Run over those cells only (backend::for_each_in); the row and diagonal blocks read
 /// the packed ones.
-template <class T, class A = double>
+template <class T>
 struct UnpackedBlockOpsOf {
-  using Arith = A;               // as StoredCellOpsOf's
   const T* full;                 // 576 per unpacked block
   const std::int32_t* slot;      // per cell: its block
   const std::int32_t* unpacked;  // per block: its copy in full (>= 0 for these cells)
-  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, A* xe, A* ye) const {
-    element::symmetric_apply_add<T, A>(full + 576 * std::int64_t(unpacked[slot[e]]), A(1), xe, ye);
+  HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t*, double* xe, double* ye) const {
+    element::symmetric_apply_add(full + 576 * std::int64_t(unpacked[slot[e]]), 1.0, xe, ye);
   }
 };
 

@@ -5,7 +5,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <new>
-#include <type_traits>
 
 #include "backend/loop.hpp"
 #include "backend/restriction.hpp"
@@ -249,24 +248,20 @@ void StoredCells::apply_add_on(const V* x, V* y) const {
       backend::for_each_in(
           packed_cells_, backend::CellApplyAdd<StoredCellOps, V>{{d, block_of()}, corners(), x, y});
     } else {
-      // Float blocks on float vectors (the float V-cycle): float arithmetic too.
-      using A = std::conditional_t<std::is_same_v<V, float>, float, double>;
       backend::for_each_in(
           unpacked_cells_,
-          backend::CellApplyAdd<UnpackedBlockOpsOf<float, A>, V>{
+          backend::CellApplyAdd<UnpackedBlockOpsOf<float>, V>{
               {full_single_.data(), block_of(), unpacked_.data()}, corners(), x, y});
-      backend::for_each_in(packed_cells_, backend::CellApplyAdd<StoredCellOpsOf<float, A>, V>{
+      backend::for_each_in(packed_cells_, backend::CellApplyAdd<StoredCellOpsSingle, V>{
                                               {packed_single(), block_of()}, corners(), x, y});
     }
     return;
   }
-  if (const double* d = packed_double()) {
+  if (const double* d = packed_double())
     backend::for_each(n, backend::CellApplyAdd<StoredCellOps, V>{{d, block_of()}, corners(), x, y});
-  } else {
-    using A = std::conditional_t<std::is_same_v<V, float>, float, double>;
-    backend::for_each(n, backend::CellApplyAdd<StoredCellOpsOf<float, A>, V>{
+  else
+    backend::for_each(n, backend::CellApplyAdd<StoredCellOpsSingle, V>{
                              {packed_single(), block_of()}, corners(), x, y});
-  }
 }
 
 void StoredCells::apply_add(const double* x, double* y) const {

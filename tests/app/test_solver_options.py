@@ -111,6 +111,8 @@ def main():
               f"(rc {rc}, {iterations(out)}) {err[-300:]}")
     for args, ranks, what in (([path, "-gmg_interpolation", "smoothed"], 1,
                                "-gmg_interpolation smoothed"),
+                              ([path, "-gmg_interpolation", "energy", "-gmg_precision", "single"], 1,
+                               "-gmg_interpolation energy with -gmg_precision single"),
                               ([comp], 1, "composite elements")):
         rc, out, err = run([*args, "--check", "-gmg_backend", "host_loop"], ranks=ranks)
         check(rc == 2 and f"-gmg_backend host_loop does not support {what}" in err,

@@ -1055,8 +1055,8 @@ TEST(Multigrid, SinglePrecisionCoarseLevelsKeepTheIterationsAndTheSolution) {
 
 TEST(Multigrid, FloatVCycleKeepsTheIterationsAndTheSolution) {
   // -gmg_backend host_loop -gmg_precision single: the whole cycle in float (every level's
-  // vectors and level data, the fine and coarse cells' products in float arithmetic), CG and
-  // its residual in double. Issue 13: rtol 1e-8 reached with at most 2 more iterations than the
+  // vectors and level data, the fine cells' products in float arithmetic), CG and its
+  // residual in double. Issue 13: rtol 1e-8 reached with at most 2 more iterations than the
   // double cycle, solutions equal to the tolerance, on the same cases as the float blocks,
   // on 1 and 2 ranks.
   for (const auto& c : mixed_precision_cases()) {
