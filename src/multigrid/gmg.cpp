@@ -705,11 +705,15 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
         return it->second;
       };
       a.prolong_coarse.assign(8 * std::size_t(D.num_owned), -1);
-      if (rows_[l].empty()) {
-        PetscCall(scalar_prolongation(l, coarse_begin, coarse_local, &a));
-      } else {
-        PetscCall(block_prolongation(l, coarse_local, &a));
-      }
+      const PetscErrorCode read = rows_[l].empty()
+                                      ? scalar_prolongation(l, coarse_begin, coarse_local, &a)
+                                      : block_prolongation(l, coarse_local, &a);
+      // Collective: a rank whose rows do not fit must not leave the others waiting in the
+      // executors' halo set-up.
+      int failed = read != 0;
+      PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, comm_));
+      PetscCheck(!failed, comm_, PETSC_ERR_PLIB,
+                 "gmg: level %d's interpolation could not be read for the loop-layer cycle", l);
       // The restriction: the same weights gathered per coarse local copy (ghosts included).
       const auto num_coarse = std::size_t(C.num_local()) + extra[l + 1].size();
       a.restrict_offset.assign(num_coarse + 1, 0);
