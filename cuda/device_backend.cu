@@ -429,14 +429,13 @@ DeviceCycle::Executor::Of<S>::Of(const std::vector<DeviceCycleLevel>& in, int ga
     d.colour_copy = up(&ints, h.colour_copy, std::size_t(h.colour_begin[8]));
     if (l + 1 < L) {
       d.prolong_coarse = up(&ints, h.prolong_coarse, 8 * n);
-      level_array(h.prolong_weight, 8 * n, &d.prolong_weight, &d.prolong_weight_single);
+      const auto block = std::size_t(h.weight_block);
+      level_array(h.prolong_weight, 8 * block * n, &d.prolong_weight, &d.prolong_weight_single);
       const auto nc = std::size_t(h.num_coarse);
       const auto nr = std::size_t(h.restrict_offset[nc]);
       d.restrict_offset = up(&ints, h.restrict_offset, nc + 1);
       d.restrict_fine = up(&ints, h.restrict_fine, nr);
-      level_array(h.restrict_weight, nr, &d.restrict_weight, &d.restrict_weight_single);
-      level_array(h.prolong_block, 72 * n, &d.prolong_block, &d.prolong_block_single);
-      level_array(h.restrict_block, 9 * nr, &d.restrict_block, &d.restrict_block_single);
+      level_array(h.restrict_weight, block * nr, &d.restrict_weight, &d.restrict_weight_single);
       cells[l] = in[l].cells;
       positions[l] = up(&ints, in[l].position, 3 * std::size_t(in[l].cells.num_cells));
       if (l == 0) {

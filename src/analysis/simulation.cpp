@@ -67,16 +67,14 @@ namespace {
 
 /// -gmg_backend host_loop and cuda run the loop-layer cycle (multigrid/loop_cycle.hpp), which
 /// does not have every option of the host cycle yet: refused as invalid input before any work.
-PetscErrorCode check_backend(MPI_Comm comm, const multigrid::Options& o) {
+PetscErrorCode check_backend(const multigrid::Options& o) {
   PetscFunctionBeginUser;
   if (o.backend == multigrid::Backend::host) PetscFunctionReturn(0);
   const char* name = o.backend == multigrid::Backend::cuda ? "cuda" : "host_loop";
   std::string no_device;
   if (o.backend == multigrid::Backend::cuda && multigrid::device_count(&no_device) == 0)
     throw InputError("-gmg_backend cuda: " + no_device + "; use -gmg_backend host");
-  PetscMPIInt size;
-  PetscCallMPI(MPI_Comm_size(comm, &size));
-  if (const char* why = multigrid::loop_cycle_refusal(o, size))
+  if (const char* why = multigrid::loop_cycle_refusal(o))
     throw InputError(std::string("-gmg_backend ") + name + " does not support " + why +
                      " yet (doc/user-guide.md, \"Not yet\"); use -gmg_backend host");
   PetscFunctionReturn(0);
@@ -109,7 +107,7 @@ PetscErrorCode Simulation::setup(CompositeCarry* carry) {
     if (!options.cycle_set && !model_.lattice.cut_links.empty() &&
         deck_.analysis.type == deck::Analysis::Type::static_)
       options.cycle_gamma = 2;
-    PetscCall(check_backend(comm_, options));
+    PetscCall(check_backend(options));
     mg_ = std::make_unique<multigrid::Multigrid>(
         comm_, model_.lattice, model_.copies, model_.partition, model_.layout, model_.dm, options);
     PetscCall(multigrid::pc_set_multigrid(pc, mg_.get()));
@@ -143,7 +141,7 @@ PetscErrorCode Simulation::setup_composite(PC pc, bool hexcut_pc, CompositeCarry
     options.factor_coarsest = false;
   }
   options.first_level = l;
-  if (hexcut_pc) PetscCall(check_backend(comm_, options));
+  if (hexcut_pc) PetscCall(check_backend(options));
   options.hierarchy.min_levels = l + 1;
   PetscBool rotate = PETSC_TRUE;
   PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hexcut_composite_rotate", &rotate, nullptr));

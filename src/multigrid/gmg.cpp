@@ -45,8 +45,7 @@ CycleBackendFactory device_cycle_factory() {
   return the_device_cycle_factory;
 }
 
-const char* loop_cycle_refusal(const Options& o, int ranks) {
-  (void)ranks;  // both executors exchange ghosts on any number of ranks (multigrid/halo.hpp)
+const char* loop_cycle_refusal(const Options& o) {
   // Energy rows across a material jump amplify round-off ~1e3-fold (doc/theory.md, "The CUDA
   // backend: the cycle on the loop layer"): the float cycle's rounding then made the bunny
   // example's preconditioner indefinite on 2 ranks.
@@ -599,7 +598,8 @@ PetscErrorCode Multigrid::block_prolongation(
   Mat P = data_[l]->P;
   PetscInt first;
   PetscCall(MatGetOwnershipRange(P, &first, nullptr));
-  a->prolong_block.assign(72 * std::size_t(D.num_owned), 0.0);
+  a->view.weight_block = 9;
+  a->prolong_weight.assign(72 * std::size_t(D.num_owned), 0.0);
   for (std::int32_t f = 0; f < D.num_owned; ++f) {
     PetscInt block_col[8];
     int n = 0;
@@ -620,8 +620,8 @@ PetscErrorCode Multigrid::block_prolongation(
           }
           block_col[n++] = C;
         }
-        a->prolong_block[72 * std::size_t(f) + 9 * std::size_t(j) + 3 * std::size_t(r) +
-                         std::size_t(cols[k] % 3)] = vals[k];
+        a->prolong_weight[72 * std::size_t(f) + 9 * std::size_t(j) + 3 * std::size_t(r) +
+                          std::size_t(cols[k] % 3)] = vals[k];
       }
       PetscCall(MatRestoreRow(P, first + 3 * f + r, &nc, &cols, &vals));
     }
@@ -633,9 +633,7 @@ PetscErrorCode Multigrid::block_prolongation(
 
 PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
   PetscFunctionBeginUser;
-  PetscMPIInt size;
-  PetscCallMPI(MPI_Comm_size(comm_, &size));
-  const char* why = loop_cycle_refusal(opt_, size);
+  const char* why = loop_cycle_refusal(opt_);
   if (!why && !built_) why = "a cycle before the first update()";
   PetscCheck(!why, comm_, PETSC_ERR_SUP,
              "gmg: the loop-layer cycle (-gmg_backend cuda) does not support %s yet; the host "
@@ -657,15 +655,14 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
       const auto after = std::upper_bound(D.owned_begin.begin(), D.owned_begin.end(), g);
       return int(after - D.owned_begin.begin() - 1);
     };
-    for (std::int32_t i = D.num_owned; i < D.num_local(); ++i) {
-      const PetscInt g = D.global_block[std::size_t(D.copies[std::size_t(i)])];
-      a.ghost_rank.push_back(owner(g));
-      a.ghost_index.push_back(std::int32_t(g - D.owned_begin[std::size_t(owner(g))]));
-    }
-    for (const PetscInt g : extra[l]) {
-      a.ghost_rank.push_back(owner(g));
-      a.ghost_index.push_back(std::int32_t(g - D.owned_begin[std::size_t(owner(g))]));
-    }
+    const auto add_ghost = [&](PetscInt g) {
+      const int r = owner(g);
+      a.ghost_rank.push_back(r);
+      a.ghost_index.push_back(std::int32_t(g - D.owned_begin[std::size_t(r)]));
+    };
+    for (std::int32_t i = D.num_owned; i < D.num_local(); ++i)
+      add_ghost(D.global_block[std::size_t(D.copies[std::size_t(i)])]);
+    for (const PetscInt g : extra[l]) add_ghost(g);
     const PetscScalar* m;
     PetscCall(VecGetArrayRead(data_[l]->mask, &m));
     a.mask.assign(m, m + 3 * std::size_t(D.num_owned));
@@ -721,29 +718,23 @@ PetscErrorCode Multigrid::loop_levels(std::vector<LoopLevelArrays>* out) const {
         if (c >= 0) ++a.restrict_offset[std::size_t(c) + 1];
       for (std::size_t c = 0; c < num_coarse; ++c) a.restrict_offset[c + 1] += a.restrict_offset[c];
       a.restrict_fine.resize(std::size_t(a.restrict_offset.back()));
-      const bool blocks = !a.prolong_block.empty();
-      (blocks ? a.restrict_block : a.restrict_weight)
-          .resize((blocks ? 9 : 1) * a.restrict_fine.size());
+      const auto block = std::size_t(a.view.weight_block);
+      a.restrict_weight.resize(block * a.restrict_fine.size());
       std::vector<std::int32_t> next(a.restrict_offset.begin(), a.restrict_offset.end() - 1);
       for (std::int32_t f = 0; f < D.num_owned; ++f)
         for (int k = 0; k < 8 && a.prolong_coarse[8 * std::size_t(f) + k] >= 0; ++k) {
           const auto j = 8 * std::size_t(f) + std::size_t(k);
           const auto c = a.prolong_coarse[j];
           a.restrict_fine[next[c]] = f;
-          if (blocks)
-            std::copy_n(&a.prolong_block[9 * j], 9, &a.restrict_block[9 * std::size_t(next[c])]);
-          else
-            a.restrict_weight[next[c]] = a.prolong_weight[j];
-          ++next[c];
+          std::copy_n(&a.prolong_weight[block * j], block,
+                      &a.restrict_weight[block * std::size_t(next[c]++)]);
         }
       a.view.num_coarse = std::int64_t(num_coarse);
       a.view.prolong_coarse = a.prolong_coarse.data();
-      a.view.prolong_weight = a.prolong_weight.empty() ? nullptr : a.prolong_weight.data();
-      a.view.prolong_block = a.prolong_block.empty() ? nullptr : a.prolong_block.data();
+      a.view.prolong_weight = a.prolong_weight.data();
       a.view.restrict_offset = a.restrict_offset.data();
       a.view.restrict_fine = a.restrict_fine.data();
-      a.view.restrict_weight = a.restrict_weight.empty() ? nullptr : a.restrict_weight.data();
-      a.view.restrict_block = a.restrict_block.empty() ? nullptr : a.restrict_block.data();
+      a.view.restrict_weight = a.restrict_weight.data();
     }
     a.view.mask = a.mask.data();
   }

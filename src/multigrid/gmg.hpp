@@ -47,11 +47,11 @@ enum class Backend { host, host_loop, cuda };
 class Multigrid;
 struct Options;
 
-/// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options on
-/// `ranks` ranks, or null: it runs Chebyshev on point-block Jacobi or coloured block
-/// Gauss-Seidel, trilinear or energy-minimizing interpolation,
-/// fine hexahedra (no composite elements), on any number of ranks (`ranks` is not a limit).
-const char* loop_cycle_refusal(const Options& o, int ranks);
+/// Why the loop-layer cycle (Backend::host_loop, cuda) cannot run with these options, or null:
+/// it runs Chebyshev on point-block Jacobi or coloured block Gauss-Seidel, trilinear or
+/// energy-minimizing interpolation (energy in double only), fine hexahedra (no composite
+/// elements), on any number of ranks.
+const char* loop_cycle_refusal(const Options& o);
 
 /// A cycle run elsewhere than on PETSc vectors (Backend::host_loop, Backend::cuda): x = M^-1 b
 /// on arrays of the first level's owned DOFs. Built after each update() of its Multigrid.

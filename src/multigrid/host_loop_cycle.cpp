@@ -32,19 +32,13 @@ PetscErrorCode HostLoopCycleOf<S>::create(Multigrid& mg, std::unique_ptr<HostLoo
       f[1].assign(a.mask.begin(), a.mask.end());
       f[2].assign(a.prolong_weight.begin(), a.prolong_weight.end());
       f[3].assign(a.restrict_weight.begin(), a.restrict_weight.end());
-      f[4].assign(a.prolong_block.begin(), a.prolong_block.end());
-      f[5].assign(a.restrict_block.begin(), a.restrict_block.end());
       const auto data = [](const std::vector<float>& u) { return u.empty() ? nullptr : u.data(); };
       v.diag_inv_single = data(f[0]);
       v.mask_single = data(f[1]);
       v.prolong_weight_single = data(f[2]);
       v.restrict_weight_single = data(f[3]);
-      v.prolong_block_single = data(f[4]);
-      v.restrict_block_single = data(f[5]);
       v.diag_inv = v.mask = v.prolong_weight = v.restrict_weight = nullptr;
-      v.prolong_block = v.restrict_block = nullptr;
-      for (auto* d :
-           {&a.mask, &a.prolong_weight, &a.restrict_weight, &a.prolong_block, &a.restrict_block})
+      for (auto* d : {&a.mask, &a.prolong_weight, &a.restrict_weight})
         std::vector<double>().swap(*d);
     }
   }

@@ -72,7 +72,7 @@ class HostLoopCycleOf : public CycleBackend {
   std::vector<double> coarse_b_, coarse_x_;          // float: the coarsest solve's, in double
   // float: each level's data in float (LoopLevel's twins: diagonal blocks, mask, prolongation
   // and restriction weights); the double copies are released.
-  std::vector<std::array<std::vector<float>, 6>> single_;  // + prolong, restrict blocks
+  std::vector<std::array<std::vector<float>, 4>> single_;
   std::vector<std::unique_ptr<LevelHalo>> halos_;          // per level
   std::vector<std::vector<S>> packed_;                     // per level: 3 per send copy
   // The first PETSc error of solve_coarsest, exchange or accumulate (the executor interface

@@ -56,26 +56,22 @@ struct LoopLevel {
   double omega = 1.0;
   std::int64_t colour_begin[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   const std::int32_t* colour_copy = nullptr;
-  // Transfer from level l+1 (null on the coarsest level).
+  // Transfer from level l+1 (null on the coarsest level). Each weight is weight_block numbers:
+  // 1, a scalar times the identity (trilinear), or 9, a row-major 3x3 block (energy-minimizing
+  // rows, -gmg_interpolation energy; the restriction applies it transposed).
+  int weight_block = 1;
   const std::int32_t* prolong_coarse = nullptr;   // 8 per copy of this level
   const double* prolong_weight = nullptr;         // 8 per copy of this level
   std::int64_t num_coarse = 0;                    // local copies of level l+1 (with ghosts)
   const std::int32_t* restrict_offset = nullptr;  // num_coarse + 1
   const std::int32_t* restrict_fine = nullptr;    // fine copies of each coarse copy
-  const double* restrict_weight = nullptr;
-  // Energy-minimizing rows (-gmg_interpolation energy): 3x3 blocks instead of scalar weights
-  // (the weights above are then null): 8 blocks per fine copy (row-major, in the order of
-  // prolong_coarse) and, per restriction entry, that entry's block (applied transposed).
-  const double* prolong_block = nullptr;
-  const double* restrict_block = nullptr;
+  const double* restrict_weight = nullptr;        // one per restriction entry
   // The same level data in float, for an executor whose vectors are float (its Scalar; null
   // in a double one): the single-precision V-cycle reads its level data in its vectors' type.
   const float* diag_inv_single = nullptr;
   const float* mask_single = nullptr;
   const float* prolong_weight_single = nullptr;
   const float* restrict_weight_single = nullptr;
-  const float* prolong_block_single = nullptr;
-  const float* restrict_block_single = nullptr;
 };
 
 /// A level's data in the type V of an executor's vectors: LoopLevel's double arrays, or their
@@ -86,17 +82,13 @@ struct LoopLevelData {
   const V* mask;
   const V* prolong_weight;
   const V* restrict_weight;
-  const V* prolong_block;
-  const V* restrict_block;
 };
 template <class V>
 LoopLevelData<V> level_data(const LoopLevel& L) {
   if constexpr (std::is_same_v<V, float>)
-    return {L.diag_inv_single,        L.mask_single,          L.prolong_weight_single,
-            L.restrict_weight_single, L.prolong_block_single, L.restrict_block_single};
+    return {L.diag_inv_single, L.mask_single, L.prolong_weight_single, L.restrict_weight_single};
   else
-    return {L.diag_inv,        L.mask,          L.prolong_weight,
-            L.restrict_weight, L.prolong_block, L.restrict_block};
+    return {L.diag_inv, L.mask, L.prolong_weight, L.restrict_weight};
 }
 
 /// A LoopLevel's arrays in host memory (Multigrid::loop_levels): what a backend uploads. The
@@ -120,7 +112,6 @@ struct LoopLevelArrays {
   std::vector<double> prolong_weight;
   std::vector<std::int32_t> restrict_offset, restrict_fine;
   std::vector<double> restrict_weight;
-  std::vector<double> prolong_block, restrict_block;  // energy rows (else empty)
 };
 
 /// y = 0 (3 values per copy). V: the work vectors' type (Exec::Scalar) in all the bodies below,
@@ -386,9 +377,9 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   residual(ex, l, b, x, r, true);
   // Each rank restricts its owned fine copies into the coarse copies they reach, its ghosts
   // included, and the ghosts' partial sums go to their owners.
-  if (data.restrict_block)
+  if (L.weight_block == 9)
     ex.for_each(L.num_coarse, Restrict<V, true>{L.restrict_offset, L.restrict_fine,
-                                                data.restrict_block, r, ex.b(l + 1)});
+                                                data.restrict_weight, r, ex.b(l + 1)});
   else
     ex.for_each(L.num_coarse, Restrict<V>{L.restrict_offset, L.restrict_fine, data.restrict_weight,
                                           r, ex.b(l + 1)});
@@ -396,8 +387,8 @@ void cycle_level(Exec& ex, int l, bool zero_guess) {
   const int visits = l + 2 == levels ? 1 : ex.gamma();
   for (int v = 0; v < visits; ++v) cycle_level(ex, l + 1, v == 0);
   ex.exchange(l + 1, ex.x(l + 1));
-  if (data.prolong_block)
-    ex.for_each(L.num_copies, ProlongAdd<V, true>{L.prolong_coarse, data.prolong_block, data.mask,
+  if (L.weight_block == 9)
+    ex.for_each(L.num_copies, ProlongAdd<V, true>{L.prolong_coarse, data.prolong_weight, data.mask,
                                                   ex.x(l + 1), x});
   else
     ex.for_each(L.num_copies,
