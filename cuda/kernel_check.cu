@@ -353,6 +353,12 @@ __global__ void check_fine_cell_single_view(as::FineCellData d, double* out) {
   out[e] = c.K_mu ? c.k_lambda : c.mass;
 }
 
+__global__ void check_masked_cell_apply_add(as::FineCellData d, const std::int32_t* corners,
+                                            double* x, double* y) {
+  const int e = thread_index();
+  as::masked_cell_apply_add(d, e, corners + 8 * e, as::fine_cell(d, e), x + 24 * e, y + 24 * e);
+}
+
 __global__ void check_fine_cell_apply_add_single(const float* K, const double* R, double w,
                                                  const float* x, float* y) {
   const int e = thread_index();

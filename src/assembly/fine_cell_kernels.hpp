@@ -85,22 +85,31 @@ HEXCUT_HD inline bool cell_is_masked(const FineCellData& d, std::int32_t e) {
   return d.mask && d.cell_masked[e];
 }
 
+/// ye += A_e xe for cell e seen as `cell` (fine_cell or fine_cell_single), with the rows and
+/// columns of masked DOFs zeroed: masked DOFs enter as 0 (xe is masked in place) and receive
+/// nothing. T: the cell's arithmetic.
+template <class T>
+HEXCUT_HD inline void masked_cell_apply_add(const FineCellData& d, std::int32_t e,
+                                            const std::int32_t* corners,
+                                            const element::FineCellOf<T>& cell, T* xe, T* ye) {
+  if (!cell_is_masked(d, e)) {
+    element::fine_cell_apply_add(cell, xe, ye);
+    return;
+  }
+  for (int q = 0; q < 8; ++q)
+    for (int k = 0; k < 3; ++k) xe[3 * q + k] *= T(d.mask[3 * corners[q] + k]);
+  element::fine_cell_apply_add(cell, xe, ye);
+  for (int q = 0; q < 8; ++q)
+    for (int k = 0; k < 3; ++k) ye[3 * q + k] *= T(d.mask[3 * corners[q] + k]);
+}
+
 /// The fine cells' per-cell operator for backend/restriction.hpp's kernels: A_e with the rows
 /// and columns of masked DOFs zeroed (masked DOFs enter as 0 and receive nothing).
 struct FineCellOps {
   FineCellData d;
   HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t* corners, double* xe,
                            double* ye) const {
-    const auto cell = fine_cell(d, e);
-    if (!cell_is_masked(d, e)) {
-      element::fine_cell_apply_add(cell, xe, ye);
-      return;
-    }
-    for (int q = 0; q < 8; ++q)
-      for (int k = 0; k < 3; ++k) xe[3 * q + k] *= d.mask[3 * corners[q] + k];
-    element::fine_cell_apply_add(cell, xe, ye);
-    for (int q = 0; q < 8; ++q)
-      for (int k = 0; k < 3; ++k) ye[3 * q + k] *= d.mask[3 * corners[q] + k];
+    masked_cell_apply_add(d, e, corners, fine_cell(d, e), xe, ye);
   }
   HEXCUT_HD void row_block(std::int32_t e, const std::int32_t* corners, int q, double* xe,
                            double* y3) const {
@@ -134,16 +143,7 @@ struct FineCellOpsSingle {
   FineCellData d;
   HEXCUT_HD void apply_add(std::int32_t e, const std::int32_t* corners, float* xe,
                            float* ye) const {
-    const auto cell = fine_cell_single(d, e);
-    if (!cell_is_masked(d, e)) {
-      element::fine_cell_apply_add(cell, xe, ye);
-      return;
-    }
-    for (int q = 0; q < 8; ++q)
-      for (int k = 0; k < 3; ++k) xe[3 * q + k] *= float(d.mask[3 * corners[q] + k]);
-    element::fine_cell_apply_add(cell, xe, ye);
-    for (int q = 0; q < 8; ++q)
-      for (int k = 0; k < 3; ++k) ye[3 * q + k] *= float(d.mask[3 * corners[q] + k]);
+    masked_cell_apply_add(d, e, corners, fine_cell_single(d, e), xe, ye);
   }
 };
 
